@@ -1,0 +1,1 @@
+// YAML -> Params loading lives here (see yaml_params.hpp).

@@ -1,0 +1,1 @@
+#include "vision/human_types.hpp"

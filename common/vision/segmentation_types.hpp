@@ -1,0 +1,64 @@
+#pragma once
+// Results of the Section III stereo segmentation (seed paper, Sec. III).
+// Plain data shared by the core, the tools and the DDS conversions.
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace sg {
+
+// Where the ground/background line came from.
+enum class GroundSource : std::uint8_t {
+  kHough = 0,     // measured on this frame's correlation image
+  kPrior = 1,     // ground texture too weak: the rig's mounting prior was used
+  kPrevious = 2,  // ground texture too weak: the previous frame's line was kept
+  kNone = 3,      // nothing known (no measurement, no prior)
+};
+const char* toString(GroundSource source);
+
+// One offset per image row for the ground (below the horizon) and the
+// background (above it): the polyline of the paper's figure 4a.
+struct GroundProfile {
+  static constexpr float kUnknown = std::numeric_limits<float>::quiet_NaN();
+  std::vector<float> offset_per_row;   // offset (pixels) per image row, NaN where unknown
+  int horizon_row = -1;                // rows above it belong to the background line
+  float background_offset = kUnknown;  // offset of the vertical background line (pixels)
+  std::vector<cv::Point2f> vertices;   // polyline vertices (x = offset, y = row), top to bottom
+  GroundSource source = GroundSource::kNone;
+};
+
+// Label values in SegmentationResult::labels.
+enum SegmentLabel : std::uint8_t {
+  kLabelNone = 0,        // not a feature pixel
+  kLabelUnassigned = 1,  // feature pixel left over after segmentation
+  kLabelGround = 2,
+  kLabelBackground = 3,
+  kLabelFirstObstacle = 4,  // obstacle k (0-based) has label kLabelFirstObstacle + k
+};
+
+// One obstacle extracted from the correlation image (paper Sec. III, figure 5).
+struct ObstacleCluster {
+  int label = kLabelFirstObstacle;  // value in SegmentationResult::labels
+  int offset_px = 0;                // dominant offset (pixels)
+  int min_offset_px = 0;            // offset range covered (walls receding in depth span many)
+  int max_offset_px = 0;
+  cv::Rect box;                     // left image, pixels
+  int feature_count = 0;            // feature pixels labelled with this cluster
+};
+
+struct SegmentationResult {
+  cv::Mat left_features;             // CV_8UC1 feature images (0 = no information)
+  cv::Mat right_features;
+  cv::Mat correlation_initial;       // rows x offsets, CV_32F, before ground/background removal
+  cv::Mat correlation_after_removal; // rows x offsets, CV_32F, after ground/background removal
+  GroundProfile ground;
+  std::vector<ObstacleCluster> obstacles;  // in extraction order (strongest first)
+  cv::Mat labels;                    // CV_8UC1, SegmentLabel per left-image pixel
+  std::map<std::string, double> timing_ms;  // per stage, milliseconds
+};
+
+}  // namespace sg
