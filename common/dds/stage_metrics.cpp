@@ -1,0 +1,117 @@
+#include "dds/stage_metrics.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "dds/conversions.hpp"
+
+namespace sg::dds {
+
+StageStats::StageStats(std::string stage) : stage_(std::move(stage)), period_start_ns_(realtimeNowNs()) {}
+
+void StageStats::published(double latency_ms) {
+  ++published_;
+  ++period_published_;
+  latency_ms_.push_back(latency_ms);
+}
+
+void StageStats::dropped(const std::string& reason, std::uint64_t frames) {
+  if (frames > 0) drops_[reason] += frames;
+}
+
+std::uint64_t StageStats::framesDropped() const {
+  std::uint64_t total = 0;
+  for (const auto& [reason, count] : drops_) total += count;
+  return total;
+}
+
+double percentile(std::vector<double>& values, double pct) {
+  if (values.empty()) return 0.0;
+  const double rank = std::ceil(pct / 100.0 * static_cast<double>(values.size()));
+  const std::size_t index = std::min(values.size() - 1, static_cast<std::size_t>(std::max(1.0, rank)) - 1);
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(index), values.end());
+  return values[index];
+}
+
+void StageStats::fillMetrics(sg_idl_StageMetrics& out, bool final_report) {
+  const std::int64_t now = realtimeNowNs();
+  out.stage = const_cast<char*>(stage_.c_str());
+  out.pid = static_cast<std::int32_t>(getpid());
+  out.time_ns = now;
+  out.frames_received = received_;
+  out.frames_published = published_;
+  drop_scratch_.clear();
+  for (const auto& [reason, count] : drops_) {
+    drop_scratch_.push_back(sg_idl_DropCount{const_cast<char*>(reason.c_str()), count});
+  }
+  out.dropped._maximum = static_cast<std::uint32_t>(drop_scratch_.size());
+  out.dropped._length = static_cast<std::uint32_t>(drop_scratch_.size());
+  out.dropped._buffer = drop_scratch_.empty() ? nullptr : drop_scratch_.data();
+  out.dropped._release = false;
+  out.processing_ms_p50 = percentile(processing_ms_, 50.0);
+  out.processing_ms_p99 = percentile(processing_ms_, 99.0);
+  out.latency_ms_p50 = percentile(latency_ms_, 50.0);
+  out.latency_ms_p99 = percentile(latency_ms_, 99.0);
+  const double period_s = static_cast<double>(now - period_start_ns_) * 1e-9;
+  out.frames_per_s = period_s > 0.0 ? static_cast<double>(period_published_) / period_s : 0.0;
+  out.final_report = final_report;
+  processing_ms_.clear();
+  latency_ms_.clear();
+  period_published_ = 0;
+  period_start_ns_ = now;
+}
+
+std::string StageStats::summary() const {
+  std::ostringstream out;
+  out << "received " << received_ << ", published " << published_ << ", dropped " << framesDropped();
+  if (!drops_.empty()) {
+    out << " (";
+    bool first = true;
+    for (const auto& [reason, count] : drops_) {
+      out << (first ? "" : ", ") << reason << " " << count;
+      first = false;
+    }
+    out << ")";
+  }
+  return out.str();
+}
+
+std::uint64_t SampleGapCounter::gapBefore(dds_instance_handle_t writer, std::uint64_t sample_seq) {
+  auto [it, inserted] = next_.try_emplace(writer, sample_seq + 1);
+  if (inserted) return sample_seq;  // samples 0..seq-1 of a writer first seen now never arrived
+  const std::uint64_t expected = it->second;
+  it->second = sample_seq + 1;
+  if (sample_seq < expected) return 0;  // same writer restarted its count (should not happen)
+  return sample_seq - expected;
+}
+
+std::uint64_t StageMetricsData::droppedTotal() const {
+  std::uint64_t total = 0;
+  for (const auto& [reason, count] : dropped) total += count;
+  return total;
+}
+
+StageMetricsData readStageMetrics(const sg_idl_StageMetrics& in) {
+  StageMetricsData m;
+  m.stage = in.stage != nullptr ? in.stage : "";
+  m.pid = in.pid;
+  m.time_ns = in.time_ns;
+  m.frames_received = in.frames_received;
+  m.frames_published = in.frames_published;
+  for (std::uint32_t i = 0; i < in.dropped._length; ++i) {
+    const sg_idl_DropCount& d = in.dropped._buffer[i];
+    m.dropped[d.reason != nullptr ? d.reason : "unknown"] += d.count;
+  }
+  m.processing_ms_p50 = in.processing_ms_p50;
+  m.processing_ms_p99 = in.processing_ms_p99;
+  m.latency_ms_p50 = in.latency_ms_p50;
+  m.latency_ms_p99 = in.latency_ms_p99;
+  m.frames_per_s = in.frames_per_s;
+  m.final_report = in.final_report;
+  return m;
+}
+
+}  // namespace sg::dds
