@@ -16,6 +16,9 @@ struct HumanDetection {
   Eigen::Vector3f position_m{0, 0, 0};  // left camera frame: x right, y down, z forward
   int ground_contact_row = -1;      // image row of the feet on the ground line
   int cluster_label = -1;           // obstacle cluster the candidate came from
+  float symmetry = 0.0f;            // vertical symmetry score of the candidate, [0, 1]
+  float shape_score = 0.0f;         // shape classifier (HOG + linear SVM) margin, unbounded
+  float match_quality = 0.0f;       // ZNCC of the left box against the right image at the refined offset
   int track_id = -1;                // -1 until a track confirms it
   bool confirmed = false;           // true when the tracker has confirmed the track
 };

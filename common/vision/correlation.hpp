@@ -1,0 +1,68 @@
+#pragma once
+// Correlation image (seed paper, Sec. III, figure 3d): for every image row y
+// and every offset d in 0..D-1, how well the left feature row matches the
+// right feature row shifted by d (left x matches right x - d).
+//
+// Definition (docs/method.md):
+//   match(y, x, d) = L(y, x) > 0 and R(y, x - d) > 0 and |L(y, x) - R(y, x - d)| <= grey_tolerance
+//   matches(y, d)  = number of x in [d, W) with match(y, x, d)            (CV_32S)
+//   score(y, d)    = matches(y, d) / max(N_L(y), min_row_features)        (CV_32F)
+// where N_L(y) is the number of left feature pixels in row y. A row without
+// left features scores 0 everywhere. Integer counting keeps every output exact:
+// the serial reference and the parallel path give bit-identical images.
+//
+// Not re-entrant: a correlator owns its scratch; use one per thread.
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "config/params.hpp"
+
+namespace sg {
+
+struct CorrelationParams {
+  int offsets = 128;          // D: offsets 0..D-1 (pixels of disparity)
+  int grey_tolerance = 12;    // grey levels: larger differences do not match (gain and noise between cameras)
+  int min_row_features = 8;   // normaliser floor: a row with a handful of features cannot score 1
+  int band_rows = 8;          // rows per TBB band (fixed: results never depend on the thread count)
+
+  template <class V>
+  void visit(V& v) {
+    v.field("offsets", offsets, 1, 1024, "pixels", "number of offsets D (disparities 0..D-1)");
+    v.field("grey_tolerance", grey_tolerance, 0, 254, "grey levels", "largest left/right grey difference that matches");
+    v.field("min_row_features", min_row_features, 1, 100000, "pixels", "floor of the per-row normaliser");
+    v.field("band_rows", band_rows, 1, 4096, "rows", "rows per parallel band");
+  }
+  void validate() const { validateParams(*this, "correlation"); }
+};
+
+// Number of left pixels in [x0, x1) matching the right row at offset d (right x - d), the inner loop.
+int countRowMatches(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d, int grey_tolerance);
+
+class Correlator {
+ public:
+  explicit Correlator(const CorrelationParams& params = {});
+
+  // left, right: CV_8UC1 feature images of the same size. score: CV_32F rows x D;
+  // matches: CV_32S rows x D. Parallel row bands (TBB), bit-identical to computeReference.
+  void compute(const cv::Mat& left, const cv::Mat& right, cv::Mat& score, cv::Mat& matches);
+  void compute(const cv::Mat& left, const cv::Mat& right, cv::Mat& score);
+  void computeReference(const cv::Mat& left, const cv::Mat& right, cv::Mat& score, cv::Mat& matches);
+  // Recomputes only the rows with rows[y] != 0 (score/matches already hold the other rows);
+  // identical to a full compute on the same inputs.
+  void computeRows(const cv::Mat& left, const cv::Mat& right, const std::vector<std::uint8_t>& rows, cv::Mat& score,
+                   cv::Mat& matches);
+
+  const CorrelationParams& params() const { return params_; }
+
+ private:
+  void prepare(const cv::Mat& left, const cv::Mat& right, cv::Mat& score, cv::Mat& matches) const;
+  void correlateRow(const cv::Mat& left, const cv::Mat& right, int y, cv::Mat& score, cv::Mat& matches) const;
+
+  CorrelationParams params_;
+  cv::Mat scratch_score_;  // for the score-only overload
+  cv::Mat scratch_matches_;
+};
+
+}  // namespace sg

@@ -1,0 +1,83 @@
+#include "vision/feature_removal.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "config/errors.hpp"
+
+namespace sg {
+
+FeatureRemover::FeatureRemover(const RemovalParams& params) : params_(params) { params_.validate(); }
+
+void FeatureRemover::prepare(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
+                             cv::Mat& remaining, cv::Mat& labels, std::vector<std::uint8_t>& changed_rows) const {
+  if (left.empty() || left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size())
+    throw InputError("removal: feature images must be non-empty mono8 of the same size");
+  if (static_cast<int>(ground.offset_per_row.size()) != left.rows && !ground.offset_per_row.empty())
+    throw InputError("removal: the ground profile has " + std::to_string(ground.offset_per_row.size()) +
+                     " rows, the image " + std::to_string(left.rows));
+  remaining.create(left.size(), CV_8UC1);
+  labels.create(left.size(), CV_8UC1);
+  changed_rows.assign(static_cast<std::size_t>(left.rows), 0);
+}
+
+void FeatureRemover::removeRows(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
+                                cv::Mat& remaining, cv::Mat& labels, std::vector<std::uint8_t>& changed_rows, int y0,
+                                int y1) const {
+  const int w = left.cols;
+  const int tol = params_.grey_tolerance;
+  for (int y = y0; y < y1; ++y) {
+    const std::uint8_t* l = left.ptr<std::uint8_t>(y);
+    const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+    std::uint8_t* out = remaining.ptr<std::uint8_t>(y);
+    std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+    for (int x = 0; x < w; ++x) {
+      out[x] = l[x];
+      lab[x] = l[x] != 0 ? kLabelUnassigned : kLabelNone;
+    }
+    const float offset = ground.offset_per_row.empty() ? GroundProfile::kUnknown
+                                                       : ground.offset_per_row[static_cast<std::size_t>(y)];
+    if (!std::isfinite(offset)) continue;
+    const int d0 = std::max(static_cast<int>(std::floor(offset)) - params_.offset_tolerance_px, 0);
+    const int d1 = static_cast<int>(std::ceil(offset)) + params_.offset_tolerance_px;
+    const std::uint8_t label = y >= ground.horizon_row ? kLabelGround : kLabelBackground;
+    bool changed = false;
+    for (int x = 0; x < w; ++x) {
+      const int a = l[x];
+      if (a == 0) continue;
+      for (int d = d0; d <= d1 && d <= x; ++d) {
+        const int b = r[x - d];
+        if (b != 0 && std::abs(a - b) <= tol) {
+          out[x] = 0;
+          lab[x] = label;
+          changed = true;
+          break;
+        }
+      }
+    }
+    changed_rows[static_cast<std::size_t>(y)] = changed ? 1 : 0;
+  }
+}
+
+void FeatureRemover::computeReference(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
+                                      cv::Mat& remaining, cv::Mat& labels, std::vector<std::uint8_t>& changed_rows) {
+  prepare(left, right, ground, remaining, labels, changed_rows);
+  removeRows(left, right, ground, remaining, labels, changed_rows, 0, left.rows);
+}
+
+void FeatureRemover::compute(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
+                             cv::Mat& remaining, cv::Mat& labels, std::vector<std::uint8_t>& changed_rows) {
+  prepare(left, right, ground, remaining, labels, changed_rows);
+  const int band = params_.band_rows;
+  const int bands = (left.rows + band - 1) / band;
+  tbb::parallel_for(tbb::blocked_range<int>(0, bands), [&](const tbb::blocked_range<int>& range) {
+    for (int b = range.begin(); b != range.end(); ++b)
+      removeRows(left, right, ground, remaining, labels, changed_rows, b * band, std::min((b + 1) * band, left.rows));
+  });
+}
+
+}  // namespace sg

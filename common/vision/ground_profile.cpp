@@ -1,0 +1,259 @@
+#include "vision/ground_profile.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "config/errors.hpp"
+
+namespace sg {
+
+GroundEstimator::GroundEstimator(const GroundParams& params) : params_(params) { params_.validate(); }
+
+void GroundEstimator::findPeaks(const cv::Mat& score) {
+  peaks_.clear();
+  row_peak_begin_.assign(static_cast<std::size_t>(score.rows) + 1, 0);
+  const int offsets = score.cols;
+  std::vector<Peak> row_peaks;
+  for (int y = 0; y < score.rows; ++y) {
+    row_peak_begin_[static_cast<std::size_t>(y)] = static_cast<int>(peaks_.size());
+    const float* s = score.ptr<float>(y);
+    const float row_max = *std::max_element(s, s + offsets);
+    const float floor = std::max(params_.min_peak_score, params_.peak_ratio * row_max);
+    if (row_max <= 0.0f || row_max < floor) continue;
+    row_peaks.clear();
+    for (int d = 0; d < offsets; ++d) {
+      const bool left_ok = d == 0 || s[d] >= s[d - 1];
+      const bool right_ok = d == offsets - 1 || s[d] > s[d + 1];
+      if (left_ok && right_ok && s[d] >= floor) row_peaks.push_back(Peak{y, d, s[d]});
+    }
+    // Strongest first; ties keep the smaller offset (stable sort on a deterministic order).
+    std::stable_sort(row_peaks.begin(), row_peaks.end(), [](const Peak& a, const Peak& b) { return a.weight > b.weight; });
+    const std::size_t keep = std::min(row_peaks.size(), static_cast<std::size_t>(params_.max_peaks_per_row));
+    peaks_.insert(peaks_.end(), row_peaks.begin(), row_peaks.begin() + static_cast<std::ptrdiff_t>(keep));
+  }
+  row_peak_begin_[static_cast<std::size_t>(score.rows)] = static_cast<int>(peaks_.size());
+}
+
+std::optional<GroundLine> GroundEstimator::hough(const std::vector<std::uint8_t>& use, int rows, int offsets) const {
+  (void)offsets;
+  const int n_slopes = static_cast<int>(std::floor((params_.max_slope - params_.min_slope) / params_.slope_step)) + 1;
+  const int n_bins = 2 * rows;  // horizon rows -rows .. rows-1 (a horizon below the image shows no ground)
+  accumulator_.assign(static_cast<std::size_t>(n_slopes) * static_cast<std::size_t>(n_bins), 0.0f);
+  bool any = false;
+  for (std::size_t i = 0; i < peaks_.size(); ++i) {
+    const Peak& p = peaks_[i];
+    if (!use[i] || p.offset < 1) continue;  // offset 0 is infinity: no slope information
+    any = true;
+    for (int k = 0; k < n_slopes; ++k) {
+      const double s = params_.min_slope + k * params_.slope_step;
+      const long bin = std::lround(p.row - p.offset / s) + rows;
+      if (bin < 0 || bin >= n_bins) continue;
+      accumulator_[static_cast<std::size_t>(k) * static_cast<std::size_t>(n_bins) + static_cast<std::size_t>(bin)] +=
+          p.weight;
+    }
+  }
+  if (!any) return std::nullopt;
+  // Best 3x3 neighbourhood sum: a line between two bins still collects its votes.
+  float best = 0.0f;
+  int best_k = -1, best_b = -1;
+  for (int k = 0; k < n_slopes; ++k) {
+    for (int b = 0; b < n_bins; ++b) {
+      float sum = 0.0f;
+      for (int dk = -1; dk <= 1; ++dk) {
+        const int kk = k + dk;
+        if (kk < 0 || kk >= n_slopes) continue;
+        const float* row = &accumulator_[static_cast<std::size_t>(kk) * static_cast<std::size_t>(n_bins)];
+        for (int db = -1; db <= 1; ++db) {
+          const int bb = b + db;
+          if (bb >= 0 && bb < n_bins) sum += row[bb];
+        }
+      }
+      if (sum > best) {
+        best = sum;
+        best_k = k;
+        best_b = b;
+      }
+    }
+  }
+  if (best_k < 0) return std::nullopt;
+  GroundLine line;
+  line.slope = params_.min_slope + best_k * params_.slope_step;
+  line.horizon_row = best_b - rows;
+  return line;
+}
+
+int GroundEstimator::support(const GroundLine& line, int row_begin, int row_end, int offsets, int* crossed) const {
+  int count = 0, seen = 0;
+  for (int y = std::max(row_begin, 0); y < row_end; ++y) {
+    const double d = line.offsetAt(y);
+    if (d < 0.5 || d > offsets - 1) continue;
+    ++seen;
+    for (int i = row_peak_begin_[static_cast<std::size_t>(y)]; i < row_peak_begin_[static_cast<std::size_t>(y) + 1];
+         ++i) {
+      if (std::abs(peaks_[static_cast<std::size_t>(i)].offset - d) <= params_.support_tolerance_px) {
+        ++count;
+        break;
+      }
+    }
+  }
+  if (crossed) *crossed = seen;
+  return count;
+}
+
+GroundLine GroundEstimator::refit(const GroundLine& line, int row_begin, int row_end) const {
+  // Weighted least squares d = a * y + b over the peaks near the line.
+  double sw = 0, sy = 0, sd = 0, syy = 0, syd = 0;
+  for (int y = std::max(row_begin, 0); y < row_end; ++y) {
+    const double d_line = line.offsetAt(y);
+    for (int i = row_peak_begin_[static_cast<std::size_t>(y)]; i < row_peak_begin_[static_cast<std::size_t>(y) + 1];
+         ++i) {
+      const Peak& p = peaks_[static_cast<std::size_t>(i)];
+      if (p.offset < 1 || std::abs(p.offset - d_line) > params_.support_tolerance_px) continue;
+      const double w = p.weight;
+      sw += w;
+      sy += w * y;
+      sd += w * p.offset;
+      syy += w * y * y;
+      syd += w * y * p.offset;
+    }
+  }
+  const double det = sw * syy - sy * sy;
+  if (sw <= 0.0 || std::abs(det) < 1e-9) return line;
+  const double a = (sw * syd - sy * sd) / det;
+  const double b = (sd - a * sy) / sw;
+  if (!(a >= params_.min_slope * 0.5 && a <= params_.max_slope * 2.0)) return line;
+  GroundLine out = line;
+  out.slope = a;
+  out.horizon_row = -b / a;
+  return out;
+}
+
+float GroundEstimator::backgroundOffset(const cv::Mat& score, int rows_above) const {
+  const int rows = std::clamp(rows_above, 0, score.rows);
+  if (rows == 0) return 0.0f;
+  std::vector<float> sums(static_cast<std::size_t>(score.cols), 0.0f);
+  for (int y = 0; y < rows; ++y) {
+    const float* s = score.ptr<float>(y);
+    for (int d = 0; d < score.cols; ++d) sums[static_cast<std::size_t>(d)] += s[d];
+  }
+  const auto best = std::max_element(sums.begin(), sums.end());
+  if (*best < params_.min_background_score) return 0.0f;  // nothing measurable: infinity
+  return static_cast<float>(best - sums.begin());
+}
+
+void GroundEstimator::compute(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous,
+                              int previous_age_frames, GroundProfile& out) {
+  if (score.empty() || score.type() != CV_32F) throw InputError("ground: the correlation image must be CV_32F");
+  const int rows = score.rows;
+  const int offsets = score.cols;
+  main_line_.reset();
+  second_line_.reset();
+  findPeaks(score);
+
+  use_.assign(peaks_.size(), 1);
+  std::optional<GroundLine> l1 = hough(use_, rows, offsets);
+  bool measured = false;
+  if (l1) {
+    int row_begin = static_cast<int>(std::ceil(l1->horizon_row));
+    *l1 = refit(*l1, row_begin, rows);
+    row_begin = static_cast<int>(std::ceil(l1->horizon_row));
+    int crossed = 0;
+    l1->support_rows = support(*l1, row_begin, rows, offsets, &crossed);
+    measured = l1->support_rows >= params_.min_support_rows &&
+               l1->support_rows >= params_.min_support_fraction * crossed;
+  }
+
+  out.offset_per_row.assign(static_cast<std::size_t>(rows), GroundProfile::kUnknown);
+  out.vertices.clear();
+
+  double junction = -1.0;
+  if (measured) {
+    main_line_ = l1;
+    bool second_far = false;  // second segment above (farther than) the junction
+    if (params_.piecewise) {
+      const double tol = 2.0 * params_.support_tolerance_px;
+      for (std::size_t i = 0; i < peaks_.size(); ++i) {
+        const Peak& p = peaks_[i];
+        use_[i] = p.row > l1->horizon_row && std::abs(p.offset - l1->offsetAt(p.row)) > tol;
+      }
+      std::optional<GroundLine> l2 = hough(use_, rows, offsets);
+      if (l2 && std::abs(l2->slope - l1->slope) > 0.05 * l1->slope) {
+        const double yj = (l1->slope * l1->horizon_row - l2->slope * l2->horizon_row) / (l1->slope - l2->slope);
+        const int top = static_cast<int>(std::ceil(std::min(l1->horizon_row, l2->horizon_row)));
+        if (yj > top && yj < rows - 1) {
+          const int j = static_cast<int>(std::ceil(yj));
+          const int a1 = support(*l1, top, j, offsets, nullptr);
+          const int a2 = support(*l2, top, j, offsets, nullptr);
+          const int b1 = support(*l1, j, rows, offsets, nullptr);
+          const int b2 = support(*l2, j, rows, offsets, nullptr);
+          if (a2 > a1 && a2 >= params_.min_segment_rows) {
+            second_far = true;
+            *l2 = refit(*l2, top, j);
+            l2->support_rows = support(*l2, top, j, offsets, nullptr);
+          } else if (b2 > b1 && b2 >= params_.min_segment_rows) {
+            *l2 = refit(*l2, j, rows);
+            l2->support_rows = support(*l2, j, rows, offsets, nullptr);
+          } else {
+            l2.reset();
+          }
+          if (l2 && std::abs(l2->slope - l1->slope) > 1e-6) {
+            junction = (l1->slope * l1->horizon_row - l2->slope * l2->horizon_row) / (l1->slope - l2->slope);
+            if (junction > top && junction < rows - 1) second_line_ = l2;
+          }
+        }
+      }
+    }
+    auto ground = [&](double y) {
+      if (second_line_ && (second_far ? y < junction : y >= junction)) return second_line_->offsetAt(y);
+      return main_line_->offsetAt(y);
+    };
+    for (int y = 0; y < rows; ++y) out.offset_per_row[static_cast<std::size_t>(y)] = static_cast<float>(ground(y));
+    out.source = GroundSource::kHough;
+  } else if (params_.prefer_previous && previous && previous->source == GroundSource::kHough &&
+             previous_age_frames <= params_.max_previous_age_frames &&
+             static_cast<int>(previous->offset_per_row.size()) == rows) {
+    // The previous line keeps its ground part; the background is measured again below.
+    for (int y = 0; y < rows; ++y) {
+      const float d = previous->offset_per_row[static_cast<std::size_t>(y)];
+      out.offset_per_row[static_cast<std::size_t>(y)] = y >= previous->horizon_row ? d : -1.0f;
+    }
+    // Extend the ground part above the old horizon with its own slope (two lowest rows).
+    const int yh = std::max(previous->horizon_row, 0);
+    if (yh + 1 < rows) {
+      const float slope = out.offset_per_row[static_cast<std::size_t>(rows - 1)] -
+                          out.offset_per_row[static_cast<std::size_t>(rows - 2)];
+      for (int y = yh - 1; y >= 0; --y)
+        out.offset_per_row[static_cast<std::size_t>(y)] = out.offset_per_row[static_cast<std::size_t>(y) + 1] - slope;
+    }
+    out.source = GroundSource::kPrevious;
+  } else if (rig.mounting) {
+    for (int y = 0; y < rows; ++y)
+      out.offset_per_row[static_cast<std::size_t>(y)] = static_cast<float>(rig.groundOffsetPrior(y));
+    out.source = GroundSource::kPrior;
+  } else {
+    out.source = GroundSource::kNone;
+    out.horizon_row = -1;
+    out.background_offset = GroundProfile::kUnknown;
+    return;
+  }
+
+  // Background: the offset dominating the rows where the ground would be farther than 1 px.
+  int rows_above = 0;
+  while (rows_above < rows && out.offset_per_row[static_cast<std::size_t>(rows_above)] < 1.0f) ++rows_above;
+  const float background = backgroundOffset(score, rows_above);
+  int horizon = 0;
+  while (horizon < rows && out.offset_per_row[static_cast<std::size_t>(horizon)] < background) ++horizon;
+  for (int y = 0; y < horizon; ++y) out.offset_per_row[static_cast<std::size_t>(y)] = background;
+  out.background_offset = background;
+  out.horizon_row = horizon;
+  out.vertices.emplace_back(background, 0.0f);
+  out.vertices.emplace_back(background, static_cast<float>(horizon));
+  if (second_line_) {
+    const int j = static_cast<int>(std::ceil(junction));
+    if (j > horizon && j < rows) out.vertices.emplace_back(out.offset_per_row[static_cast<std::size_t>(j)], static_cast<float>(j));
+  }
+  if (horizon < rows)
+    out.vertices.emplace_back(out.offset_per_row[static_cast<std::size_t>(rows - 1)], static_cast<float>(rows - 1));
+}
+
+}  // namespace sg

@@ -1,0 +1,113 @@
+#pragma once
+// Ground and background polyline (seed paper, Sec. III, figures 2 and 4a).
+//
+// A Hough transform over the row peaks of the correlation image finds the
+// slanted ground line d = s * (y - y_h) (offset grows below the horizon row
+// y_h); the vertical background line above the horizon is the offset that
+// dominates the rows above it. Beyond the paper:
+//  - a second Hough pass on the peaks the first line leaves unexplained finds a
+//    second ground segment meeting the first one (slope change: ramps, crests);
+//  - both segments are refined by a weighted least-squares fit on their peaks;
+//  - when the ground texture is too weak (too little support), the line of the
+//    previous frame (if recent) or the rig's mounting prior is used, and the
+//    profile says so in GroundProfile::source.
+#include <optional>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "camera/stereo_rig.hpp"
+#include "config/params.hpp"
+#include "vision/segmentation_types.hpp"
+
+namespace sg {
+
+struct GroundParams {
+  // Row peaks that vote.
+  int max_peaks_per_row = 3;        // strongest local maxima of a row that vote
+  float min_peak_score = 0.08f;     // a peak below this score (matched fraction of the row) does not vote
+  float peak_ratio = 0.5f;          // a peak below this fraction of its row's maximum does not vote
+  // Hough space: ground slope s (offset pixels per row) and horizon row.
+  double min_slope = 0.03;          // s = B / camera height for a level rig: B 0.1..0.6 m, height 0.5..3 m
+  double max_slope = 1.5;
+  double slope_step = 0.004;
+  // Acceptance of a measured line.
+  double support_tolerance_px = 1.5;  // a row supports a line when one of its peaks is this close (offset pixels)
+  int min_support_rows = 20;          // fewer supporting rows: the texture is too weak, fall back
+  double min_support_fraction = 0.3;  // ... or a smaller fraction of the rows the line crosses
+  bool piecewise = true;              // look for a second segment (slope change)
+  int min_segment_rows = 15;          // rows supporting the second segment on its side
+  // Background line above the horizon.
+  float min_background_score = 0.5f;  // summed score of the best background column; below: offset 0 (infinity)
+  // Fallback when the ground is not measured.
+  bool prefer_previous = true;        // previous frame's line before the mounting prior
+  int max_previous_age_frames = 10;   // a previous line older than this is not used
+
+  template <class V>
+  void visit(V& v) {
+    v.field("max_peaks_per_row", max_peaks_per_row, 1, 16, "", "row peaks voting in the Hough transform");
+    v.field("min_peak_score", min_peak_score, 0.0, 1.0, "score", "weakest peak that votes");
+    v.field("peak_ratio", peak_ratio, 0.0, 1.0, "", "weakest peak relative to its row maximum");
+    v.field("min_slope", min_slope, 0.001, 10.0, "offset px per row", "smallest ground slope searched");
+    v.field("max_slope", max_slope, 0.001, 10.0, "offset px per row", "largest ground slope searched");
+    v.field("slope_step", slope_step, 0.0001, 1.0, "offset px per row", "slope resolution of the Hough space");
+    v.field("support_tolerance_px", support_tolerance_px, 0.1, 10.0, "pixels", "peak distance supporting a line");
+    v.field("min_support_rows", min_support_rows, 1, 100000, "rows", "support needed to accept a measured line");
+    v.field("min_support_fraction", min_support_fraction, 0.0, 1.0, "", "support fraction needed");
+    v.field("piecewise", piecewise, 0, 1, "", "fit a second ground segment (slope change)");
+    v.field("min_segment_rows", min_segment_rows, 1, 100000, "rows", "support needed by the second segment");
+    v.field("min_background_score", min_background_score, 0.0, 1e9, "score", "weakest accepted background line");
+    v.field("prefer_previous", prefer_previous, 0, 1, "", "use the previous frame's line before the prior");
+    v.field("max_previous_age_frames", max_previous_age_frames, 0, 100000, "frames", "oldest usable previous line");
+  }
+  void validate() const {
+    validateParams(*this, "ground");
+    if (min_slope >= max_slope) throw ParamError("parameter 'ground.min_slope' must be below 'ground.max_slope'");
+  }
+};
+
+// One straight ground segment d = slope * (row - horizon_row).
+struct GroundLine {
+  double slope = 0.0;        // offset pixels per row
+  double horizon_row = 0.0;  // row where the offset is 0
+  int support_rows = 0;
+  double offsetAt(double row) const { return slope * (row - horizon_row); }
+};
+
+class GroundEstimator {
+ public:
+  explicit GroundEstimator(const GroundParams& params = {});
+
+  // score: CV_32F rows x D correlation image. `previous`: the last measured
+  // profile and its age in frames (for the fallback), or nullptr.
+  void compute(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous, int previous_age_frames,
+               GroundProfile& out);
+
+  // The main (first) line of the last compute, when measured.
+  const std::optional<GroundLine>& mainLine() const { return main_line_; }
+  const std::optional<GroundLine>& secondLine() const { return second_line_; }
+
+  const GroundParams& params() const { return params_; }
+
+ private:
+  struct Peak {
+    int row;
+    int offset;
+    float weight;
+  };
+  void findPeaks(const cv::Mat& score);
+  std::optional<GroundLine> hough(const std::vector<std::uint8_t>& use, int rows, int offsets) const;
+  int support(const GroundLine& line, int row_begin, int row_end, int offsets, int* crossed) const;
+  GroundLine refit(const GroundLine& line, int row_begin, int row_end) const;
+  float backgroundOffset(const cv::Mat& score, int rows_above) const;
+
+  GroundParams params_;
+  std::vector<Peak> peaks_;
+  std::vector<int> row_peak_begin_;  // peaks_ index of each row's first peak, rows + 1 entries
+  mutable std::vector<float> accumulator_;
+  std::vector<std::uint8_t> use_;
+  std::optional<GroundLine> main_line_;
+  std::optional<GroundLine> second_line_;
+};
+
+}  // namespace sg

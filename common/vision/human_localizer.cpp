@@ -1,0 +1,421 @@
+#include "vision/human_localizer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <opencv2/imgproc.hpp>
+
+#include "config/errors.hpp"
+
+namespace sg {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr int kHogCellPx = 8;  // cell size of both OpenCV people detectors
+constexpr double kNoShape = -5.0;  // HOG margin reported when the box cannot be validated
+
+void requireLess(double lo, double hi, const char* lo_key, const char* hi_key) {
+  if (!(lo < hi)) {
+    throw ParamError(std::string("parameter 'localizer.") + lo_key + "' = " + std::to_string(lo) +
+                     " must be smaller than 'localizer." + hi_key + "' = " + std::to_string(hi));
+  }
+}
+
+cv::Rect toPixels(const cv::Rect2f& box, const cv::Size& size) {
+  const int x0 = std::max(0, static_cast<int>(std::floor(box.x)));
+  const int y0 = std::max(0, static_cast<int>(std::floor(box.y)));
+  const int x1 = std::min(size.width, static_cast<int>(std::ceil(box.x + box.width)));
+  const int y1 = std::min(size.height, static_cast<int>(std::ceil(box.y + box.height)));
+  return {x0, y0, std::max(0, x1 - x0), std::max(0, y1 - y0)};
+}
+
+// Linear interpolation along a row; `x` must lie in [0, cols - 1].
+double sampleRow(const std::uint8_t* row, double x) {
+  const int x0 = static_cast<int>(std::floor(x));
+  const double t = x - x0;
+  return (1.0 - t) * row[x0] + t * row[x0 + 1];
+}
+
+}  // namespace
+
+void LocalizerParams::validate() const {
+  validateParams(*this, "localizer");
+  requireLess(candidates.min_height_m, candidates.max_height_m, "candidates.min_height_m", "candidates.max_height_m");
+  requireLess(candidates.min_width_m, candidates.max_width_m, "candidates.min_width_m", "candidates.max_width_m");
+  requireLess(candidates.min_aspect, candidates.max_aspect, "candidates.min_aspect", "candidates.max_aspect");
+}
+
+double boxIoU(const cv::Rect2f& a, const cv::Rect2f& b) {
+  const double inter = static_cast<double>((a & b).area());
+  const double uni = static_cast<double>(a.area()) + static_cast<double>(b.area()) - inter;
+  return uni > 0.0 ? inter / uni : 0.0;
+}
+
+void suppressDuplicates(std::vector<HumanDetection>& detections, double iou, double containment) {
+  std::stable_sort(detections.begin(), detections.end(),
+                   [](const HumanDetection& a, const HumanDetection& b) { return a.score > b.score; });
+  std::vector<HumanDetection> kept;
+  kept.reserve(detections.size());
+  for (const auto& d : detections) {
+    bool duplicate = false;
+    for (const auto& k : kept) {
+      const double inter = static_cast<double>((d.box & k.box).area());
+      const double smaller = static_cast<double>(std::min(d.box.area(), k.box.area()));
+      if (boxIoU(d.box, k.box) > iou || (smaller > 0.0 && inter / smaller > containment)) {
+        duplicate = true;
+        break;
+      }
+    }
+    if (!duplicate) kept.push_back(d);
+  }
+  detections.swap(kept);
+}
+
+double groundRowForOffset(const GroundProfile& ground, const StereoRig& rig, double offset_px, double near_row) {
+  const auto& g = ground.offset_per_row;
+  const int first = std::max(0, ground.horizon_row);
+  double best = kNaN;
+  double best_dist = std::numeric_limits<double>::infinity();
+  int last_finite = -1;
+  for (int r = first; r < static_cast<int>(g.size()); ++r) {
+    if (std::isfinite(g[static_cast<std::size_t>(r)])) last_finite = r;
+    if (r + 1 >= static_cast<int>(g.size())) break;
+    const double a = static_cast<double>(g[static_cast<std::size_t>(r)]);
+    const double b = static_cast<double>(g[static_cast<std::size_t>(r) + 1]);
+    if (!std::isfinite(a) || !std::isfinite(b)) continue;
+    if ((a - offset_px) * (b - offset_px) > 0.0) continue;
+    const double row = a == b ? r : r + (offset_px - a) / (b - a);
+    const double dist = std::abs(row - near_row);
+    if (dist < best_dist) {
+      best_dist = dist;
+      best = row;
+    }
+  }
+  if (std::isfinite(best)) return best;
+  if (last_finite >= 0) {
+    // No crossing: the feet are below the lowest ground row; extrapolate its slope.
+    const double lo = static_cast<double>(g[static_cast<std::size_t>(last_finite)]);
+    if (offset_px > lo) {
+      int ref = last_finite;
+      while (ref > first && last_finite - ref < 10 && std::isfinite(g[static_cast<std::size_t>(ref) - 1])) --ref;
+      const double slope = ref < last_finite ? (lo - static_cast<double>(g[static_cast<std::size_t>(ref)])) / (last_finite - ref) : 0.0;
+      if (slope > 1e-6) return last_finite + (offset_px - lo) / slope;
+    }
+    return kNaN;
+  }
+  if (rig.mounting) {
+    const Mounting& m = *rig.mounting;
+    const double c = std::cos(m.pitch_rad);
+    if (c <= 1e-6) return kNaN;
+    return rig.cy_px + (offset_px * m.height_m / rig.baseline_m - rig.focal_px * std::sin(m.pitch_rad)) / c;
+  }
+  return kNaN;
+}
+
+HumanLocalizer::HumanLocalizer(const LocalizerParams& params) : params_(params), scanner_(params.symmetry) {
+  params_.validate();
+  if (params_.shape.detector == 0) {
+    hog_ = cv::HOGDescriptor();
+    hog_.setSVMDetector(cv::HOGDescriptor::getDefaultPeopleDetector());
+  } else {
+    hog_ = cv::HOGDescriptor(cv::Size(48, 96), cv::Size(16, 16), cv::Size(8, 8), cv::Size(8, 8), 9);
+    hog_.setSVMDetector(cv::HOGDescriptor::getDaimlerPeopleDetector());
+  }
+}
+
+double HumanLocalizer::combinedScore(double symmetry, double shape_score) const {
+  const auto& s = params_.score;
+  const double t = s.bias + s.w_symmetry * symmetry + s.w_shape * shape_score;
+  return 1.0 / (1.0 + std::exp(-t));
+}
+
+double HumanLocalizer::foreignShare(const SegmentationResult& segmentation, const cv::Rect& box, int own_label) const {
+  if (segmentation.labels.empty()) return 0.0;
+  const cv::Rect r = box & cv::Rect(0, 0, segmentation.labels.cols, segmentation.labels.rows);
+  int own = 0;
+  int other = 0;
+  for (int y = r.y; y < r.y + r.height; ++y) {
+    const auto* l = segmentation.labels.ptr<std::uint8_t>(y);
+    for (int x = r.x; x < r.x + r.width; ++x) {
+      if (l[x] < kLabelFirstObstacle) continue;
+      if (l[x] == own_label) ++own;
+      else ++other;
+    }
+  }
+  return own + other > 0 ? static_cast<double>(other) / (own + other) : 0.0;
+}
+
+void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& rig,
+                                         const SegmentationResult& segmentation, const ObstacleCluster& cluster,
+                                         std::vector<HumanDetection>& out) {
+  const auto& cp = params_.candidates;
+  const double d = cluster.offset_px;
+  if (d < 1.0 || cluster.box.area() <= 0) return;
+  const double px_per_m = d / rig.baseline_m;  // size_px = size_m * f / Z = size_m * d / B
+  const double min_w_px = cp.min_width_m * px_per_m;
+  const double max_w_px = cp.max_width_m * px_per_m;
+  const int min_h_px = std::max(cp.min_height_px, static_cast<int>(std::floor(cp.min_height_m * px_per_m)));
+  const int max_h_px = static_cast<int>(std::ceil(cp.max_height_m * px_per_m));
+  if (max_h_px < min_h_px) return;
+
+  const cv::Rect image(0, 0, left.cols, left.rows);
+  const cv::Rect cbox = cluster.box & image;
+  if (cbox.area() <= 0) return;
+  const int cluster_bottom = cbox.y + cbox.height - 1;
+  // Perspective from the ground line: the feet of a person at offset d stand
+  // on the row where the ground offset is d.
+  const double contact = groundRowForOffset(segmentation.ground, rig, d, cluster_bottom);
+  int bottom = std::isfinite(contact) ? static_cast<int>(std::lround(contact)) : cluster_bottom;
+  // A contact far below the cluster means the line is wrong for this object: trust the cluster.
+  if (bottom > cluster_bottom + max_h_px / 2 || bottom < cbox.y + min_h_px / 2) bottom = cluster_bottom;
+  bottom = std::clamp(bottom, 0, left.rows - 1);
+
+  const int margin_x = static_cast<int>(std::lround(cp.region_margin * max_w_px));
+  const int margin_y = 2 + cbox.height / 20;
+  const int x0 = std::max(0, cbox.x - margin_x);
+  const int x1 = std::min(left.cols - 1, cbox.x + cbox.width - 1 + margin_x);
+  // Rows above the cluster top are not the cluster's: start at its top unless
+  // the smallest person would be taller than the cluster.
+  const int y0 = std::max(0, std::min(cbox.y - margin_y, bottom - min_h_px));
+  const int y1 = std::min(left.rows - 1, std::max(bottom, cluster_bottom));
+  const cv::Rect roi(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
+  if (roi.width < 3 || roi.height < min_h_px) return;
+
+  const cv::Mat grey = left(roi);
+  if (!segmentation.labels.empty() && segmentation.labels.size() == left.size()) {
+    cv::compare(segmentation.labels(roi), cluster.label, region_mask_, cv::CMP_EQ);
+  } else {
+    region_mask_.release();
+  }
+  scanner_.edgeWeights(grey, region_mask_, region_weights_);
+
+  SymmetrySearch search;
+  search.min_half_width_px = std::max(1, static_cast<int>(std::lround((min_w_px - 1.0) / 2.0)));
+  search.max_half_width_px = std::max(search.min_half_width_px, static_cast<int>(std::lround((max_w_px - 1.0) / 2.0)));
+  search.bottom_row = bottom - roi.y;
+  search.min_height_px = min_h_px;
+  search.max_height_px = max_h_px;
+  search.min_aspect = cp.min_aspect;
+  search.max_aspect = cp.max_aspect;
+  scanner_.compute(grey, region_weights_, search, sym_scratch_);
+
+  std::vector<HumanDetection> local;
+  const auto& fp = params_.filters;
+  for (const auto& c : sym_scratch_) {
+    if (static_cast<double>(c.score) < cp.min_symmetry) continue;
+    if (static_cast<double>(c.edge_density) < fp.min_edge_density) continue;   // too few edges
+    if (static_cast<double>(c.grey_stddev) < fp.min_grey_stddev) continue;      // uniform texture
+    HumanDetection h;
+    h.box = cv::Rect2f(static_cast<float>(c.box.x + roi.x), static_cast<float>(c.box.y + roi.y),
+                       static_cast<float>(c.box.width), static_cast<float>(c.box.height));
+    h.symmetry = c.score;
+    h.score = c.score;
+    h.offset_px = static_cast<float>(d);
+    h.cluster_label = cluster.label;
+    local.push_back(h);
+  }
+  suppressDuplicates(local, fp.nms_iou, fp.nms_containment);
+  int kept = 0;
+  for (const auto& h : local) {
+    if (kept >= cp.max_per_cluster) break;
+    const cv::Rect pixels = toPixels(h.box, left.size());
+    if (foreignShare(segmentation, pixels, cluster.label) > fp.max_foreign_share) continue;  // straddles clusters
+    out.push_back(h);
+    ++kept;
+  }
+}
+
+bool HumanLocalizer::refineOffset(const cv::Mat& left, const cv::Mat& right, const cv::Rect& box, const cv::Mat& mask,
+                                  float& offset_px, float& zncc) {
+  const auto& rp = params_.refine;
+  zncc = -1.0f;
+  const int d0 = static_cast<int>(std::lround(offset_px));
+  const int dlo = std::max(0, d0 - rp.search_radius_px);
+  const int dhi = d0 + rp.search_radius_px;
+  samples_p_.clear();
+  samples_l_.clear();
+  const cv::Rect r = box & cv::Rect(0, 0, left.cols, left.rows);
+  for (int y = r.y; y < r.y + r.height; ++y) {
+    const auto* l = left.ptr<std::uint8_t>(y);
+    const std::uint8_t* m = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(y - box.y);
+    for (int x = r.x; x < r.x + r.width; ++x) {
+      if (m != nullptr && m[x - box.x] == 0) continue;
+      // Room for the widest offset and the sub-pixel steps (one extra pixel each side).
+      if (x - dhi - 2 < 0 || x - dlo + 2 >= right.cols) continue;
+      samples_p_.emplace_back(x, y);
+      samples_l_.push_back(l[x]);
+    }
+  }
+  const std::size_t n = samples_p_.size();
+  if (static_cast<int>(n) < rp.min_pixels) return false;
+
+  double sl = 0.0, sll = 0.0;
+  for (double v : samples_l_) {
+    sl += v;
+    sll += v * v;
+  }
+  const double nd = static_cast<double>(n);
+  const double var_l = sll - sl * sl / nd;
+  if (var_l <= 1e-6) return false;
+
+  auto znccAt = [&](int d) {
+    double sr = 0.0, srr = 0.0, slr = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double rv = right.at<std::uint8_t>(samples_p_[i].y, samples_p_[i].x - d);
+      sr += rv;
+      srr += rv * rv;
+      slr += rv * samples_l_[i];
+    }
+    const double var_r = srr - sr * sr / nd;
+    if (var_r <= 1e-6) return -1.0;
+    return (slr - sl * sr / nd) / std::sqrt(var_l * var_r);
+  };
+
+  std::vector<double> scores(static_cast<std::size_t>(dhi - dlo + 1));
+  int best = dlo;
+  for (int d = dlo; d <= dhi; ++d) {
+    scores[static_cast<std::size_t>(d - dlo)] = znccAt(d);
+    if (scores[static_cast<std::size_t>(d - dlo)] > scores[static_cast<std::size_t>(best - dlo)]) best = d;
+  }
+  const double peak = scores[static_cast<std::size_t>(best - dlo)];
+  zncc = static_cast<float>(peak);
+  if (peak < rp.min_zncc) return false;
+
+  double d = best;
+  if (best > dlo && best < dhi) {
+    const double a = scores[static_cast<std::size_t>(best - dlo - 1)];
+    const double c = scores[static_cast<std::size_t>(best - dlo + 1)];
+    const double denom = a - 2.0 * peak + c;
+    if (denom < 0.0) d += std::clamp(0.5 * (a - c) / denom, -0.5, 0.5);
+  }
+  // Gauss-Newton on sum (L - g R(x - d) - b)^2 with gain g and bias b refitted
+  // each step: the right camera may have another gain.
+  const double parabola = d;
+  for (int it = 0; it < rp.iterations; ++it) {
+    double sr = 0.0, srr = 0.0, slr = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double rv = sampleRow(right.ptr<std::uint8_t>(samples_p_[i].y), samples_p_[i].x - d);
+      sr += rv;
+      srr += rv * rv;
+      slr += rv * samples_l_[i];
+    }
+    const double var_r = srr - sr * sr / nd;
+    if (var_r <= 1e-6) break;
+    const double g = (slr - sl * sr / nd) / var_r;
+    const double b = (sl - g * sr) / nd;
+    double jr = 0.0, jj = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto* row = right.ptr<std::uint8_t>(samples_p_[i].y);
+      const double xs = samples_p_[i].x - d;
+      const double rv = sampleRow(row, xs);
+      const double grad = 0.5 * (sampleRow(row, xs + 1.0) - sampleRow(row, xs - 1.0));
+      const double res = samples_l_[i] - g * rv - b;
+      const double j = g * grad;
+      jr += j * res;
+      jj += j * j;
+    }
+    if (jj <= 1e-9) break;
+    const double step = std::clamp(-jr / jj, -0.5, 0.5);
+    d += step;
+    if (std::abs(d - best) > 1.0) {  // wandered off the correlation peak: keep the parabola
+      d = parabola;
+      break;
+    }
+    if (std::abs(step) < 1e-3) break;
+  }
+  offset_px = static_cast<float>(d);
+  return true;
+}
+
+float HumanLocalizer::shapeScore(const cv::Mat& left, const cv::Rect2f& box) {
+  if (box.height < 4.0f || box.width < 1.0f) return static_cast<float>(kNoShape);
+  const cv::Size win = hog_.winSize;
+  const int shift = params_.shape.shift_cells * kHogCellPx;
+  const cv::Size canvas(win.width + 2 * shift, win.height + 2 * shift);
+  // Image pixels per canvas pixel: the person fills person_height_fraction of the window.
+  const double s = static_cast<double>(box.height) / (params_.shape.person_height_fraction * win.height);
+  const double cx = static_cast<double>(box.x) + 0.5 * static_cast<double>(box.width);
+  const double cy = static_cast<double>(box.y) + 0.5 * static_cast<double>(box.height);
+  const cv::Rect crop(static_cast<int>(std::lround(cx - 0.5 * canvas.width * s)),
+                      static_cast<int>(std::lround(cy - 0.5 * canvas.height * s)),
+                      std::max(1, static_cast<int>(std::lround(canvas.width * s))),
+                      std::max(1, static_cast<int>(std::lround(canvas.height * s))));
+  const cv::Rect image(0, 0, left.cols, left.rows);
+  const cv::Rect inside = crop & image;
+  if (inside.area() <= 0) return static_cast<float>(kNoShape);
+  cv::Mat patch;
+  cv::copyMakeBorder(left(inside), patch, inside.y - crop.y, crop.y + crop.height - inside.y - inside.height,
+                     inside.x - crop.x, crop.x + crop.width - inside.x - inside.width, cv::BORDER_REPLICATE);
+  cv::resize(patch, hog_canvas_, canvas, 0, 0, s > 1.0 ? cv::INTER_AREA : cv::INTER_LINEAR);
+  hog_.detect(hog_canvas_, hog_found_, hog_weights_, -1e9, cv::Size(kHogCellPx, kHogCellPx), cv::Size(0, 0));
+  if (hog_weights_.empty()) return static_cast<float>(kNoShape);
+  return static_cast<float>(*std::max_element(hog_weights_.begin(), hog_weights_.end()));
+}
+
+void HumanLocalizer::compute(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
+                             const SegmentationResult& segmentation, std::vector<HumanDetection>& out) {
+  out.clear();
+  if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() || left.empty()) {
+    throw InputError("localizer: left and right images must be non-empty CV_8UC1 of the same size");
+  }
+  if (!(rig.focal_px > 0.0) || !(rig.baseline_m > 0.0)) {
+    throw InputError("localizer: rig focal_px and baseline_m must be positive");
+  }
+  candidates_.clear();
+  for (const auto& cluster : segmentation.obstacles) candidatesInCluster(left, rig, segmentation, cluster, candidates_);
+  suppressDuplicates(candidates_, params_.filters.nms_iou, params_.filters.nms_containment);
+
+  const cv::Rect image(0, 0, left.cols, left.rows);
+  cv::Mat box_mask, box_weights;
+  for (auto h : candidates_) {
+    const cv::Rect pixels = toPixels(h.box, left.size());
+    if (pixels.area() <= 0) continue;
+    // Step 3: match the box's cluster edges (all its edges when too few) in the right image.
+    cv::Mat labels_mask;
+    if (!segmentation.labels.empty() && segmentation.labels.size() == left.size()) {
+      cv::compare(segmentation.labels(pixels), h.cluster_label, labels_mask, cv::CMP_EQ);
+    }
+    scanner_.edgeWeights(left(pixels), labels_mask, box_weights);
+    cv::compare(box_weights, 0.5, box_mask, cv::CMP_GE);
+    if (cv::countNonZero(box_mask) < params_.refine.min_pixels) cv::compare(box_weights, 0.0, box_mask, cv::CMP_GT);
+    float offset = h.offset_px;
+    float zncc = 0.0f;
+    const bool trusted = refineOffset(left, right, pixels, box_mask, offset, zncc);
+    h.offset_px = offset;
+    h.match_quality = zncc;
+    const double sigma_d = trusted ? params_.refine.offset_sigma_px : params_.refine.fallback_sigma_px;
+
+    // Step 4: the feet on the ground line at the refined offset (paper, figure 1).
+    const double box_top = h.box.y;
+    const double box_height = h.box.height;
+    const double box_bottom = box_top + box_height;
+    const double contact = groundRowForOffset(segmentation.ground, rig, static_cast<double>(offset), box_bottom);
+    if (std::isfinite(contact) && contact > box_top + 0.5 * box_height && contact < box_bottom + 0.5 * box_height) {
+      const double bottom = std::min(contact, static_cast<double>(left.rows));
+      h.box.height = static_cast<float>(bottom - box_top);
+      h.ground_contact_row = static_cast<int>(std::lround(contact));
+    } else {
+      h.ground_contact_row = -1;
+    }
+
+    const double z = rig.depthFromOffset(static_cast<double>(offset));
+    h.distance_m = static_cast<float>(z);
+    h.distance_sigma_m = static_cast<float>(z * z / (rig.focal_px * rig.baseline_m) * sigma_d);
+    const double foot_row = h.ground_contact_row >= 0 ? contact : static_cast<double>(h.box.y + h.box.height);
+    const double centre_col = static_cast<double>(h.box.x) + 0.5 * static_cast<double>(h.box.width);
+    const Eigen::Vector3d p = rig.pointFromPixel(centre_col, foot_row, static_cast<double>(offset));
+    h.position_m = p.cast<float>();
+
+    // Step 5: shape validation and the calibrated score.
+    h.shape_score = params_.shape.enabled ? shapeScore(left, h.box) : 0.0f;
+    h.score = static_cast<float>(combinedScore(static_cast<double>(h.symmetry), static_cast<double>(h.shape_score)));
+    if (static_cast<double>(h.score) < params_.score.min_score) continue;
+    if ((h.box & cv::Rect2f(image)).area() <= 0.0f) continue;
+    out.push_back(h);
+  }
+  suppressDuplicates(out, params_.filters.nms_iou, params_.filters.nms_containment);
+}
+
+}  // namespace sg

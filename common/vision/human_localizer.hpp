@@ -1,0 +1,201 @@
+#pragma once
+// Human shape localization inside the obstacle clusters of the Section III
+// segmentation (seed paper, Sec. II applied as Sec. V proposes):
+//
+//  1. candidates: vertical symmetry of edges and grey levels, searched only in
+//     each cluster's box (plus a margin), with human aspect ratios and sizes in
+//     metres checked through the cluster's offset; the feet are put on the
+//     ground line of the segmentation (GroundProfile), never on a flat-road model;
+//  2. filters for evident errors: too few edges, uniform texture, boxes
+//     straddling clusters at other offsets, duplicates (non-maximum suppression);
+//  3. stereo refinement: the left box is matched in the right image around the
+//     cluster offset (ZNCC, parabola, then Gauss-Newton for a sub-pixel offset),
+//     Z = f B / d and its 1-sigma uncertainty;
+//  4. ground contact: the box bottom is moved to the ground row of the refined
+//     offset (paper, figure 1);
+//  5. shape validation: OpenCV's HOG people detector on the refined box,
+//     combined with the symmetry into one calibrated score in [0, 1].
+//
+// Not re-entrant: one localizer per thread; it keeps its scratch across frames.
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/objdetect.hpp>
+
+#include "camera/stereo_rig.hpp"
+#include "config/params.hpp"
+#include "vision/human_types.hpp"
+#include "vision/segmentation_types.hpp"
+#include "vision/symmetry.hpp"
+
+namespace sg {
+
+struct CandidateParams {
+  double min_height_m = 0.9;      // smallest person (a child), metres
+  double max_height_m = 2.1;      // tallest person, metres
+  double min_width_m = 0.25;      // narrowest person box (side view), metres
+  double max_width_m = 1.0;       // widest person box (walking, arms swinging), metres
+  double min_aspect = 1.4;        // box height / width
+  double max_aspect = 5.0;
+  double region_margin = 0.25;    // search region = cluster box grown by this share of the person width range
+  int min_height_px = 16;         // smaller boxes cannot be validated
+  int max_per_cluster = 4;        // candidates kept per cluster after suppression
+  double min_symmetry = 0.12;     // symmetry score below which a candidate is dropped
+
+  template <class V>
+  void visit(V& v) {
+    v.field("min_height_m", min_height_m, 0.3, 3.0, "metres", "smallest person searched (a child)");
+    v.field("max_height_m", max_height_m, 0.5, 3.5, "metres", "tallest person searched");
+    v.field("min_width_m", min_width_m, 0.05, 2.0, "metres", "narrowest person box");
+    v.field("max_width_m", max_width_m, 0.1, 3.0, "metres", "widest person box");
+    v.field("min_aspect", min_aspect, 0.5, 10.0, "", "smallest box height / width");
+    v.field("max_aspect", max_aspect, 0.5, 10.0, "", "largest box height / width");
+    v.field("region_margin", region_margin, 0.0, 2.0, "", "search margin around a cluster, share of max width");
+    v.field("min_height_px", min_height_px, 4, 1000, "pixels", "smallest box height kept");
+    v.field("max_per_cluster", max_per_cluster, 1, 32, "", "candidates kept per cluster");
+    v.field("min_symmetry", min_symmetry, 0.0, 1.0, "", "smallest symmetry score kept");
+  }
+};
+
+struct FilterParams {
+  double min_edge_density = 0.04;         // edge weight per pixel in the box
+  double min_grey_stddev = 5.0;           // grey levels; below = uniform texture
+  double max_foreign_share = 0.45;        // share of the box's obstacle pixels labelled with other clusters
+  double nms_iou = 0.35;                  // duplicates: intersection over union above this
+  double nms_containment = 0.7;           // duplicates: share of the smaller box inside the larger one
+
+  template <class V>
+  void visit(V& v) {
+    v.field("min_edge_density", min_edge_density, 0.0, 1.0, "", "edge weight per pixel below which a box is dropped");
+    v.field("min_grey_stddev", min_grey_stddev, 0.0, 128.0, "grey levels", "uniform texture below this");
+    v.field("max_foreign_share", max_foreign_share, 0.0, 1.0, "",
+            "share of obstacle pixels of other clusters above which a box straddles two clusters");
+    v.field("nms_iou", nms_iou, 0.0, 1.0, "", "non-maximum suppression overlap (IoU)");
+    v.field("nms_containment", nms_containment, 0.0, 1.0, "", "non-maximum suppression containment");
+  }
+};
+
+struct RefineParams {
+  int search_radius_px = 3;         // offsets searched around the cluster offset
+  int iterations = 4;               // Gauss-Newton sub-pixel iterations
+  double min_zncc = 0.3;            // below: the match is not trusted, the cluster offset is kept
+  double offset_sigma_px = 0.15;    // 1-sigma precision of a trusted refined offset (pixels)
+  double fallback_sigma_px = 0.5;   // 1-sigma precision of the cluster offset (pixels)
+  int min_pixels = 24;              // fewest edge pixels needed to match
+
+  template <class V>
+  void visit(V& v) {
+    v.field("search_radius_px", search_radius_px, 0, 16, "pixels", "offsets searched around the cluster offset");
+    v.field("iterations", iterations, 0, 20, "", "Gauss-Newton sub-pixel iterations");
+    v.field("min_zncc", min_zncc, -1.0, 1.0, "", "correlation below which the refined offset is not used");
+    v.field("offset_sigma_px", offset_sigma_px, 0.01, 5.0, "pixels", "precision of a refined offset (1 sigma)");
+    v.field("fallback_sigma_px", fallback_sigma_px, 0.01, 5.0, "pixels", "precision of the cluster offset (1 sigma)");
+    v.field("min_pixels", min_pixels, 4, 100000, "pixels", "fewest edge pixels to match the box");
+  }
+};
+
+struct ShapeParams {
+  bool enabled = true;                 // HOG validation on/off (off: shape_score = 0)
+  int detector = 0;                    // 0: OpenCV default people detector (64x128), 1: Daimler (48x96)
+  double person_height_fraction = 0.75;// share of the detector window height a person fills
+  int shift_cells = 1;                 // window shifts (in 8-pixel cells) tried around the box, each way
+
+  template <class V>
+  void visit(V& v) {
+    v.field("enabled", enabled, 0, 1, "", "run the HOG people detector on each refined box");
+    v.field("detector", detector, 0, 1, "", "0 = default 64x128 people detector, 1 = Daimler 48x96");
+    v.field("person_height_fraction", person_height_fraction, 0.3, 1.0, "",
+            "share of the detector window a person's height fills (training margin)");
+    v.field("shift_cells", shift_cells, 0, 4, "cells", "window shifts tried around the box in each direction");
+  }
+};
+
+// score = 1 / (1 + exp(-(bias + w_symmetry * symmetry + w_shape * shape_score))).
+struct ScoreParams {
+  double bias = -2.0;
+  double w_symmetry = 6.0;
+  double w_shape = 1.5;
+  double min_score = 0.5;   // detections below are dropped
+
+  template <class V>
+  void visit(V& v) {
+    v.field("bias", bias, -100.0, 100.0, "", "logistic score: constant term");
+    v.field("w_symmetry", w_symmetry, -100.0, 100.0, "", "logistic score: weight of the symmetry score");
+    v.field("w_shape", w_shape, -100.0, 100.0, "", "logistic score: weight of the HOG margin");
+    v.field("min_score", min_score, 0.0, 1.0, "", "detections scoring below are dropped");
+  }
+};
+
+struct LocalizerParams {
+  SymmetryParams symmetry;
+  CandidateParams candidates;
+  FilterParams filters;
+  RefineParams refine;
+  ShapeParams shape;
+  ScoreParams score;
+
+  template <class V>
+  void visit(V& v) {
+    v.group("symmetry", symmetry);
+    v.group("candidates", candidates);
+    v.group("filters", filters);
+    v.group("refine", refine);
+    v.group("shape", shape);
+    v.group("score", score);
+  }
+  // Ranges plus the cross-field rules (min < max).
+  void validate() const;
+};
+
+// Row (fractional) where the ground offset equals `offset_px`, the crossing
+// nearest `near_row`; from the mounting prior when the profile has no ground;
+// NaN when neither gives one inside the image.
+double groundRowForOffset(const GroundProfile& ground, const StereoRig& rig, double offset_px, double near_row);
+
+// Intersection over union of two boxes; 0 when either is empty.
+double boxIoU(const cv::Rect2f& a, const cv::Rect2f& b);
+
+class HumanLocalizer {
+ public:
+  explicit HumanLocalizer(const LocalizerParams& params);
+
+  // People in the left image, strongest first. `left`/`right` CV_8UC1 rectified.
+  void compute(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig, const SegmentationResult& segmentation,
+               std::vector<HumanDetection>& out);
+
+  // Step 3 on its own: refined offset of `box` (left image) around `offset_px`;
+  // `mask` (CV_8U, box size, may be empty) selects the pixels matched.
+  // Returns false when the match is not trusted (offset_px then unchanged).
+  bool refineOffset(const cv::Mat& left, const cv::Mat& right, const cv::Rect& box, const cv::Mat& mask,
+                    float& offset_px, float& zncc);
+
+  // Step 5 on its own: HOG margin of the person in `box` (larger = more person-like).
+  float shapeScore(const cv::Mat& left, const cv::Rect2f& box);
+
+  // Logistic combination of the two cues.
+  double combinedScore(double symmetry, double shape_score) const;
+
+  const LocalizerParams& params() const { return params_; }
+
+ private:
+  void candidatesInCluster(const cv::Mat& left, const StereoRig& rig, const SegmentationResult& segmentation,
+                           const ObstacleCluster& cluster, std::vector<HumanDetection>& out);
+  double foreignShare(const SegmentationResult& segmentation, const cv::Rect& box, int own_label) const;
+
+  LocalizerParams params_;
+  SymmetryScanner scanner_;
+  cv::HOGDescriptor hog_;
+  std::vector<SymmetryCandidate> sym_scratch_;
+  std::vector<HumanDetection> candidates_;
+  cv::Mat region_mask_, region_weights_, hog_canvas_;
+  std::vector<cv::Point> hog_found_;
+  std::vector<double> hog_weights_;
+  std::vector<double> samples_l_;
+  std::vector<cv::Point> samples_p_;
+};
+
+// Greedy non-maximum suppression by score (keeps the higher score of two
+// boxes overlapping more than `iou` or one mostly inside the other).
+void suppressDuplicates(std::vector<HumanDetection>& detections, double iou, double containment);
+
+}  // namespace sg

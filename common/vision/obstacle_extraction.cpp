@@ -1,0 +1,337 @@
+#include "vision/obstacle_extraction.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+
+#include "config/errors.hpp"
+
+namespace sg {
+
+namespace {
+
+// Left pixel x matches the right row at some offset in [d0, d1].
+inline bool matchAt(const std::uint8_t* l, const std::uint8_t* r, int x, int d0, int d1, int tol) {
+  const int a = l[x];
+  if (a == 0) return false;
+  for (int d = std::max(d0, 0); d <= d1 && d <= x; ++d) {
+    const int b = r[x - d];
+    if (b != 0 && std::abs(a - b) <= tol) return true;
+  }
+  return false;
+}
+
+double overlapOfSmaller(const cv::Rect& a, const cv::Rect& b) {
+  const double inter = (a & b).area();
+  const double smaller = std::min(a.area(), b.area());
+  return smaller > 0 ? inter / smaller : 0.0;
+}
+
+}  // namespace
+
+ObstacleExtractor::ObstacleExtractor(const ObstacleParams& params) : params_(params) { params_.validate(); }
+
+void ObstacleExtractor::prepareContactRows(const GroundProfile& ground, int rows, int offsets) {
+  contact_row_.assign(static_cast<std::size_t>(offsets), rows);
+  if (ground.source == GroundSource::kNone || static_cast<int>(ground.offset_per_row.size()) != rows) return;
+  const int top = std::clamp(ground.horizon_row, 0, rows);
+  for (int d = 0; d < offsets; ++d) {
+    for (int y = top; y < rows; ++y) {
+      const float g = ground.offset_per_row[static_cast<std::size_t>(y)];
+      if (std::isfinite(g) && g >= static_cast<float>(d) - 0.5f) {
+        contact_row_[static_cast<std::size_t>(d)] = y;
+        break;
+      }
+    }
+  }
+}
+
+int ObstacleExtractor::rowLimit(int offset) const {
+  const int rows = static_cast<int>(row_median_.size());
+  const int contact = contact_row_[static_cast<std::size_t>(offset)];
+  if (contact >= rows) return rows - 1;  // nearer than the nearest visible ground: every row
+  return contact - params_.ground_band_px - 1;
+}
+
+void ObstacleExtractor::offsetHistogram(const cv::Mat& matches, const GroundProfile& ground) {
+  const int rows = matches.rows;
+  const int offsets = matches.cols;
+  row_median_.resize(static_cast<std::size_t>(rows));
+  for (int y = 0; y < rows; ++y) {
+    const int* m = matches.ptr<int>(y);
+    row_values_.assign(m, m + offsets);
+    const auto mid = row_values_.begin() + offsets / 2;
+    std::nth_element(row_values_.begin(), mid, row_values_.end());
+    row_median_[static_cast<std::size_t>(y)] = *mid;
+  }
+  offset_hist_.assign(static_cast<std::size_t>(offsets), 0.0f);
+  const double background =
+      std::isfinite(ground.background_offset) ? static_cast<double>(ground.background_offset) : -1e9;
+  for (int d = 0; d < offsets; ++d) {
+    if (banned_[static_cast<std::size_t>(d)] || d <= background + params_.background_margin_px) continue;
+    const int limit = rowLimit(d);
+    float sum = 0.0f;
+    for (int y = 0; y <= limit; ++y) {
+      const int excess = matches.ptr<int>(y)[d] - row_median_[static_cast<std::size_t>(y)];
+      if (excess >= params_.min_row_excess) sum += static_cast<float>(excess);
+    }
+    offset_hist_[static_cast<std::size_t>(d)] = sum;
+  }
+}
+
+ObstacleExtractor::Extent ObstacleExtractor::extent(const std::vector<float>& hist, int lo, int hi, int peak_lo,
+                                                    int peak_hi) {
+  Extent e;
+  if (hi < lo) return e;
+  const int r = params_.smooth_px;
+  smooth_.assign(hist.size(), 0.0f);
+  for (int i = lo; i <= hi; ++i) {
+    float s = 0.0f;
+    for (int k = std::max(lo, i - r); k <= std::min(hi, i + r); ++k) s += hist[static_cast<std::size_t>(k)];
+    smooth_[static_cast<std::size_t>(i)] = s;
+  }
+  peak_lo = std::max(peak_lo, lo);
+  peak_hi = std::min(peak_hi, hi);
+  if (peak_hi < peak_lo) return e;
+  int peak = peak_lo;
+  for (int i = peak_lo; i <= peak_hi; ++i)
+    if (smooth_[static_cast<std::size_t>(i)] > smooth_[static_cast<std::size_t>(peak)]) peak = i;
+  const float top = smooth_[static_cast<std::size_t>(peak)];
+  if (top <= 0.0f) return e;
+  const float thr = static_cast<float>(params_.extent_fraction) * top;
+  int a = peak, b = peak, gap = 0;
+  for (int i = peak - 1; i >= lo; --i) {
+    if (smooth_[static_cast<std::size_t>(i)] >= thr) {
+      a = i;
+      gap = 0;
+    } else if (++gap > params_.gap_px) {
+      break;
+    }
+  }
+  gap = 0;
+  for (int i = peak + 1; i <= hi; ++i) {
+    if (smooth_[static_cast<std::size_t>(i)] >= thr) {
+      b = i;
+      gap = 0;
+    } else if (++gap > params_.gap_px) {
+      break;
+    }
+  }
+  // Smoothing widens the extent by up to smooth_px: shrink to the raw evidence.
+  while (a < b && hist[static_cast<std::size_t>(a)] <= 0.0f) ++a;
+  while (b > a && hist[static_cast<std::size_t>(b)] <= 0.0f) --b;
+  e.lo = a;
+  e.hi = b;
+  return e;
+}
+
+void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const GroundProfile& ground,
+                                Correlator& correlator, cv::Mat& score, cv::Mat& matches,
+                                std::vector<std::uint8_t>& changed_rows, cv::Mat& labels,
+                                std::vector<ObstacleCluster>& obstacles) {
+  if (remaining.type() != CV_8UC1 || right.type() != CV_8UC1 || remaining.size() != right.size() ||
+      labels.size() != remaining.size() || labels.type() != CV_8UC1)
+    throw InputError("obstacles: feature and label images must be mono8 of the same size");
+  const int rows = remaining.rows;
+  const int cols = remaining.cols;
+  const int offsets = correlator.params().offsets;
+  const int tol = params_.offset_tolerance_px;
+  const int grey = params_.grey_tolerance;
+  obstacles.clear();
+  banned_.assign(static_cast<std::size_t>(offsets), 0);
+  row_median_.assign(static_cast<std::size_t>(rows), 0);
+  prepareContactRows(ground, rows, offsets);
+  const bool ground_known = ground.source != GroundSource::kNone;
+  const double background =
+      std::isfinite(ground.background_offset) ? static_cast<double>(ground.background_offset) : -1e9;
+  if (static_cast<int>(changed_rows.size()) != rows) changed_rows.assign(static_cast<std::size_t>(rows), 1);
+
+  // Matched pixels of the box at [d0, d1], optionally cleared and labelled.
+  auto sweepBox = [&](const cv::Rect& box, int d0, int d1, int clear_label) {
+    int count = 0;
+    for (int y = box.y; y < box.y + box.height; ++y) {
+      std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+      const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+      std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+      bool changed = false;
+      for (int x = box.x; x < box.x + box.width; ++x) {
+        if (!matchAt(l, r, x, d0, d1, grey)) continue;
+        ++count;
+        if (clear_label >= 0) {
+          l[x] = 0;
+          lab[x] = static_cast<std::uint8_t>(clear_label);
+          changed = true;
+        }
+      }
+      if (changed) changed_rows[static_cast<std::size_t>(y)] = 1;
+    }
+    return count;
+  };
+
+  for (int iteration = 0;
+       iteration < params_.max_iterations && static_cast<int>(obstacles.size()) < params_.max_obstacles;
+       ++iteration) {
+    correlator.computeRows(remaining, right, changed_rows, score, matches);
+    std::fill(changed_rows.begin(), changed_rows.end(), std::uint8_t{0});
+    offsetHistogram(matches, ground);
+    const int best = static_cast<int>(std::max_element(offset_hist_.begin(), offset_hist_.end()) - offset_hist_.begin());
+    if (offset_hist_[static_cast<std::size_t>(best)] < static_cast<float>(params_.min_peak_matches)) break;
+    const int limit = rowLimit(best);
+
+    // Column histogram over the rows that show the offset.
+    col_hist_.assign(static_cast<std::size_t>(cols), 0.0f);
+    for (int y = 0; y <= limit; ++y) {
+      if (matches.ptr<int>(y)[best] - row_median_[static_cast<std::size_t>(y)] < params_.min_row_excess) continue;
+      const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+      const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+      for (int x = 0; x < cols; ++x)
+        if (matchAt(l, r, x, best - tol, best + tol, grey)) col_hist_[static_cast<std::size_t>(x)] += 1.0f;
+    }
+    Extent cx = extent(col_hist_, 0, cols - 1, 0, cols - 1);
+    Extent cy;
+    if (cx.hi >= cx.lo) {
+      // Row histogram inside the stripe, then the columns again over those rows.
+      row_hist_.assign(static_cast<std::size_t>(rows), 0.0f);
+      for (int y = 0; y <= limit; ++y) {
+        const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+        const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+        for (int x = cx.lo; x <= cx.hi; ++x)
+          if (matchAt(l, r, x, best - tol, best + tol, grey)) row_hist_[static_cast<std::size_t>(y)] += 1.0f;
+      }
+      cy = extent(row_hist_, 0, limit, 0, limit);
+      if (cy.hi >= cy.lo) {
+        col_hist_.assign(static_cast<std::size_t>(cols), 0.0f);
+        for (int y = cy.lo; y <= cy.hi; ++y) {
+          const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+          const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+          for (int x = 0; x < cols; ++x)
+            if (matchAt(l, r, x, best - tol, best + tol, grey)) col_hist_[static_cast<std::size_t>(x)] += 1.0f;
+        }
+        cx = extent(col_hist_, 0, cols - 1, cx.lo, cx.hi);
+      }
+    }
+    if (cx.hi < cx.lo || cy.hi < cy.lo) {
+      banned_[static_cast<std::size_t>(best)] = 1;
+      continue;
+    }
+    int x0 = cx.lo, x1 = cx.hi, y0 = cy.lo, y1 = cy.hi;
+    int dmin = best, dmax = best;
+
+    if (params_.grow_walls) {
+      // Mean column evidence of the cluster: an extension needs a fraction of it.
+      float mean_col = 0.0f;
+      for (int x = x0; x <= x1; ++x) mean_col += col_hist_[static_cast<std::size_t>(x)];
+      mean_col /= static_cast<float>(x1 - x0 + 1);
+      const float thr_col = std::max(2.0f, static_cast<float>(params_.extent_fraction) * mean_col);
+      auto tryGrow = [&](int d) {
+        if (d < 0 || d >= offsets || d <= background + params_.background_margin_px) return false;
+        const int ya = y0;
+        const int yb = rowLimit(d);
+        if (yb < ya) return false;
+        col_hist_.assign(static_cast<std::size_t>(cols), 0.0f);
+        for (int y = ya; y <= yb; ++y) {
+          const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+          const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+          for (int x = 0; x < cols; ++x) {
+            if (x >= x0 && x <= x1) continue;
+            if (matchAt(l, r, x, d - tol, d + tol, grey)) col_hist_[static_cast<std::size_t>(x)] += 1.0f;
+          }
+        }
+        // Runs of strong columns starting within gap_px of the cluster's sides.
+        auto run = [&](int start, int step) {
+          int end = start - step;  // last accepted column
+          float sum = 0.0f;
+          int gap = 0;
+          for (int x = start; x >= 0 && x < cols; x += step) {
+            const float v = col_hist_[static_cast<std::size_t>(x)];
+            if (v >= thr_col) {
+              end = x;
+              gap = 0;
+              sum += v;
+            } else if (++gap > params_.gap_px) {
+              break;
+            }
+          }
+          return std::pair<int, float>{end, sum};
+        };
+        const auto [right_end, right_sum] = run(x1 + 1, +1);
+        const auto [left_end, left_sum] = run(x0 - 1, -1);
+        const bool grow_right = right_end > x1 && right_sum >= static_cast<float>(params_.min_growth_matches);
+        const bool grow_left = left_end < x0 && left_sum >= static_cast<float>(params_.min_growth_matches);
+        if (!grow_right && !grow_left) return false;
+        const int ex0 = grow_left ? left_end : x1 + 1;
+        const int ex1 = grow_right ? right_end : x0 - 1;
+        // Rows of the extension.
+        row_hist_.assign(static_cast<std::size_t>(rows), 0.0f);
+        for (int y = ya; y <= yb; ++y) {
+          const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+          const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+          for (int x = ex0; x <= ex1; ++x) {
+            if (x >= x0 && x <= x1) continue;
+            if (matchAt(l, r, x, d - tol, d + tol, grey)) row_hist_[static_cast<std::size_t>(y)] += 1.0f;
+          }
+        }
+        const Extent ey = extent(row_hist_, ya, yb, ya, yb);
+        if (ey.hi >= ey.lo) {
+          y0 = std::min(y0, ey.lo);
+          y1 = std::max(y1, ey.hi);
+        }
+        if (grow_left) x0 = left_end;
+        if (grow_right) x1 = right_end;
+        return true;
+      };
+      while (dmax + 1 < offsets && tryGrow(dmax + 1)) ++dmax;
+      while (dmin - 1 >= 0 && tryGrow(dmin - 1)) --dmin;
+    }
+
+    // Obstacles stand on the ground: the bottom is the contact row of the nearest offset.
+    bool floating = false;
+    if (ground_known) {
+      const int contact = contact_row_[static_cast<std::size_t>(dmax)];
+      if (contact < rows) {
+        const double allowed =
+            std::max(static_cast<double>(params_.contact_tolerance_px), params_.contact_tolerance_fraction * (y1 - y0 + 1));
+        if (y1 < contact - allowed) floating = true;
+        else y1 = contact;
+      }
+    }
+    const cv::Rect box(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
+    const int count = sweepBox(box, dmin - tol, dmax + tol, -1);
+    if (floating || count < params_.min_cluster_features || box.height < params_.min_height_px ||
+        box.width < params_.min_width_px) {
+      // Not an obstacle: drop the evidence of d* in the box so that the next candidate comes up.
+      if (sweepBox(box, best - tol, best + tol, kLabelUnassigned) == 0) banned_[static_cast<std::size_t>(best)] = 1;
+      continue;
+    }
+
+    // A cluster at the offset of an earlier obstacle and inside it is a part of it.
+    ObstacleCluster* merged = nullptr;
+    for (ObstacleCluster& earlier : obstacles) {
+      if (best >= earlier.min_offset_px - tol - 1 && best <= earlier.max_offset_px + tol + 1 &&
+          overlapOfSmaller(earlier.box, box) >= params_.merge_overlap) {
+        merged = &earlier;
+        break;
+      }
+    }
+    if (merged) {
+      merged->feature_count += sweepBox(box, dmin - tol, dmax + tol, merged->label);
+      merged->box |= box;
+      merged->min_offset_px = std::min(merged->min_offset_px, dmin);
+      merged->max_offset_px = std::max(merged->max_offset_px, dmax);
+      continue;
+    }
+    ObstacleCluster cluster;
+    cluster.label = kLabelFirstObstacle + static_cast<int>(obstacles.size());
+    cluster.offset_px = best;
+    cluster.min_offset_px = dmin;
+    cluster.max_offset_px = dmax;
+    cluster.box = box;
+    cluster.feature_count = sweepBox(box, dmin - tol, dmax + tol, cluster.label);
+    obstacles.push_back(cluster);
+  }
+  // The correlation left behind describes what remains.
+  correlator.computeRows(remaining, right, changed_rows, score, matches);
+  std::fill(changed_rows.begin(), changed_rows.end(), std::uint8_t{0});
+}
+
+}  // namespace sg

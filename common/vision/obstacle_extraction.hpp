@@ -1,0 +1,113 @@
+#pragma once
+// Obstacles one by one (seed paper, Sec. III, figures 3f, 4b and 5).
+//
+// Each iteration: the correlation of what is left (only the rows that changed
+// are recomputed) -> a histogram over offsets of the per-row excess over the
+// row's median -> the strongest offset d*. Left features matching the right
+// at d* (+-offset_tolerance_px) -> column histogram -> lateral borders; row
+// histogram inside that stripe -> top and bottom. The cluster is labelled and
+// removed, and the loop repeats until nothing significant is left or
+// max_obstacles are found.
+//
+// Beyond the paper:
+//  - obstacles stand on the ground: only rows above the ground contact row of
+//    d* (the row where the ground offset equals d*) count; a cluster floating
+//    far above its contact row is rejected; the box bottom is the contact row;
+//  - long walls receding in depth grow over neighbouring offsets whose
+//    matched features continue the cluster sideways, so they come out as one
+//    obstacle spanning [min_offset_px, max_offset_px] instead of slices;
+//  - a cluster at the offset of an earlier one and overlapping it is merged.
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "config/params.hpp"
+#include "vision/correlation.hpp"
+#include "vision/segmentation_types.hpp"
+
+namespace sg {
+
+struct ObstacleParams {
+  int max_obstacles = 8;            // obstacles per frame
+  int max_iterations = 24;          // candidates examined per frame (rejected ones included)
+  int offset_tolerance_px = 1;      // offsets within +-this of d* match
+  int grey_tolerance = 12;          // grey levels, as in the correlation
+  int min_row_excess = 3;           // matches above the row median: the row shows something at that offset
+  int min_peak_matches = 120;       // histogram excess of d*; below: nothing significant is left
+  double extent_fraction = 0.2;     // histogram bins above this fraction of the peak belong to the obstacle
+  int gap_px = 6;                   // gaps tolerated inside an obstacle's histograms (pixels)
+  int smooth_px = 2;                // half width of the box filter on the histograms (pixels)
+  int min_height_px = 12;           // smaller clusters are rejected
+  int min_width_px = 4;
+  int min_cluster_features = 60;    // matched feature pixels needed for an obstacle
+  int contact_tolerance_px = 12;    // allowed gap between the cluster bottom and its ground contact row ...
+  double contact_tolerance_fraction = 0.35;  // ... or this fraction of its height, whichever is larger
+  int ground_band_px = 2;           // rows just above the contact row are left out (ground residue)
+  double background_margin_px = 1.5;  // offsets within this of the background line are background residue
+  bool grow_walls = true;           // grow clusters over neighbouring offsets (walls receding in depth)
+  int min_growth_matches = 20;      // matched pixels an extension needs
+  double merge_overlap = 0.5;       // fraction of the smaller box inside an earlier obstacle at a close offset: merge
+
+  template <class V>
+  void visit(V& v) {
+    v.field("max_obstacles", max_obstacles, 0, 200, "", "obstacles per frame");
+    v.field("max_iterations", max_iterations, 0, 1000, "", "candidates examined per frame");
+    v.field("offset_tolerance_px", offset_tolerance_px, 0, 16, "pixels", "offset tolerance around d*");
+    v.field("grey_tolerance", grey_tolerance, 0, 254, "grey levels", "largest left/right grey difference that matches");
+    v.field("min_row_excess", min_row_excess, 1, 100000, "pixels", "row excess over its median that counts");
+    v.field("min_peak_matches", min_peak_matches, 1, 10000000, "pixels", "weakest offset histogram peak");
+    v.field("extent_fraction", extent_fraction, 0.0, 1.0, "", "histogram fraction of the peak inside an obstacle");
+    v.field("gap_px", gap_px, 0, 1000, "pixels", "gap tolerated inside an obstacle");
+    v.field("smooth_px", smooth_px, 0, 100, "pixels", "histogram smoothing half width");
+    v.field("min_height_px", min_height_px, 1, 100000, "pixels", "smallest obstacle height");
+    v.field("min_width_px", min_width_px, 1, 100000, "pixels", "smallest obstacle width");
+    v.field("min_cluster_features", min_cluster_features, 1, 10000000, "pixels", "smallest cluster");
+    v.field("contact_tolerance_px", contact_tolerance_px, 0, 100000, "pixels", "bottom to ground contact gap");
+    v.field("contact_tolerance_fraction", contact_tolerance_fraction, 0.0, 10.0, "", "same, fraction of the height");
+    v.field("ground_band_px", ground_band_px, 0, 100, "pixels", "rows above the contact row left out");
+    v.field("background_margin_px", background_margin_px, 0.0, 100.0, "pixels", "background residue margin");
+    v.field("grow_walls", grow_walls, 0, 1, "", "grow clusters over neighbouring offsets");
+    v.field("min_growth_matches", min_growth_matches, 1, 10000000, "pixels", "matches an extension needs");
+    v.field("merge_overlap", merge_overlap, 0.0, 1.0, "", "overlap merging a cluster into an earlier one");
+  }
+  void validate() const { validateParams(*this, "obstacles"); }
+};
+
+class ObstacleExtractor {
+ public:
+  explicit ObstacleExtractor(const ObstacleParams& params = {});
+
+  // remaining: left features still unexplained (modified: obstacle pixels are cleared).
+  // right: right feature image. score/matches: the correlation of `remaining`, valid
+  // except on rows with changed_rows[y] != 0 (updated in place). labels: updated with
+  // the obstacle labels. obstacles: the result, strongest first.
+  void compute(cv::Mat& remaining, const cv::Mat& right, const GroundProfile& ground, Correlator& correlator,
+               cv::Mat& score, cv::Mat& matches, std::vector<std::uint8_t>& changed_rows, cv::Mat& labels,
+               std::vector<ObstacleCluster>& obstacles);
+
+  const ObstacleParams& params() const { return params_; }
+
+ private:
+  struct Extent {
+    int lo = 0;
+    int hi = -1;
+  };
+  void prepareContactRows(const GroundProfile& ground, int rows, int offsets);
+  void offsetHistogram(const cv::Mat& matches, const GroundProfile& ground);
+  // Extent around the strongest bin of `hist` within [peak_lo, peak_hi], limited to [lo, hi].
+  Extent extent(const std::vector<float>& hist, int lo, int hi, int peak_lo, int peak_hi);
+  int rowLimit(int offset) const;  // last row an obstacle at this offset may occupy in the histograms
+
+  ObstacleParams params_;
+  std::vector<int> contact_row_;   // per offset: ground contact row, rows when none
+  std::vector<float> offset_hist_;
+  std::vector<int> row_median_;
+  std::vector<int> row_values_;
+  std::vector<float> col_hist_;
+  std::vector<float> row_hist_;
+  std::vector<float> smooth_;
+  std::vector<std::uint8_t> banned_;  // offsets that gave nothing this frame
+};
+
+}  // namespace sg

@@ -1,0 +1,96 @@
+#include "vision/segmenter.hpp"
+
+#include <chrono>
+
+#include "config/errors.hpp"
+
+namespace sg {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+}  // namespace
+
+Segmenter::Segmenter(const SegmenterParams& params)
+    : params_(params),
+      correlator_(params.correlation),
+      ground_(params.ground),
+      remover_(params.removal),
+      obstacles_(params.obstacles) {
+  params_.validate();
+}
+
+void Segmenter::reset() {
+  have_previous_ = false;
+  previous_age_frames_ = 0;
+}
+
+void Segmenter::compute(const cv::Mat& left_features, const cv::Mat& right_features, const StereoRig& rig,
+                        SegmentationResult& out) {
+  if (left_features.empty() || left_features.type() != CV_8UC1 || right_features.type() != CV_8UC1 ||
+      left_features.size() != right_features.size())
+    throw InputError("segmentation: feature images must be non-empty mono8 of the same size");
+  const auto start = Clock::now();
+  out.timing_ms.erase("features");
+  // segmentPair computes the features straight into `out`: no copy then.
+  if (left_features.data != out.left_features.data) left_features.copyTo(out.left_features);
+  if (right_features.data != out.right_features.data) right_features.copyTo(out.right_features);
+
+  auto t = Clock::now();
+  if (params_.parallel) correlator_.compute(left_features, right_features, out.correlation_initial, matches_);
+  else correlator_.computeReference(left_features, right_features, out.correlation_initial, matches_);
+  out.timing_ms["correlation"] = msSince(t);
+
+  t = Clock::now();
+  ground_.compute(out.correlation_initial, rig, have_previous_ ? &previous_ground_ : nullptr, previous_age_frames_,
+                  out.ground);
+  if (out.ground.source == GroundSource::kHough) {
+    previous_ground_ = out.ground;
+    previous_age_frames_ = 1;
+    have_previous_ = true;
+  } else if (have_previous_) {
+    ++previous_age_frames_;
+  }
+  out.timing_ms["ground"] = msSince(t);
+
+  t = Clock::now();
+  if (params_.parallel)
+    remover_.compute(left_features, right_features, out.ground, remaining_, out.labels, changed_rows_);
+  else
+    remover_.computeReference(left_features, right_features, out.ground, remaining_, out.labels, changed_rows_);
+  // The correlation after removal: only the rows that lost features change.
+  out.correlation_initial.copyTo(out.correlation_after_removal);
+  correlator_.computeRows(remaining_, right_features, changed_rows_, out.correlation_after_removal, matches_);
+  std::fill(changed_rows_.begin(), changed_rows_.end(), std::uint8_t{0});
+  out.timing_ms["removal"] = msSince(t);
+
+  t = Clock::now();
+  out.correlation_after_removal.copyTo(obstacle_score_);
+  obstacles_.compute(remaining_, right_features, out.ground, correlator_, obstacle_score_, matches_, changed_rows_,
+                     out.labels,
+                     out.obstacles);
+  out.timing_ms["obstacles"] = msSince(t);
+  out.timing_ms["total"] = msSince(start);
+}
+
+void segmentPair(FeatureExtractor& features, Segmenter& segmenter, const cv::Mat& left, const cv::Mat& right,
+                 const StereoRig& rig, SegmentationResult& out) {
+  if (left.size() != right.size())
+    throw InputError("segmentation: left and right images differ in size");
+  const auto start = Clock::now();
+  if (segmenter.params().parallel) {
+    features.compute(left, out.left_features);
+    features.compute(right, out.right_features);
+  } else {
+    features.computeReference(left, out.left_features);
+    features.computeReference(right, out.right_features);
+  }
+  const double features_ms = msSince(start);
+  segmenter.compute(out.left_features, out.right_features, rig, out);
+  out.timing_ms["features"] = features_ms;
+  out.timing_ms["total"] = msSince(start);
+}
+
+}  // namespace sg

@@ -1,0 +1,78 @@
+#pragma once
+// The Section III stereo segmentation (seed paper) as one object: correlation
+// image -> ground/background polyline -> removal -> obstacles one by one.
+// Keeps the previous frame's ground line for the weak-texture fallback and
+// reuses its images across frames. Not re-entrant: one Segmenter per thread.
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "camera/stereo_rig.hpp"
+#include "config/params.hpp"
+#include "vision/correlation.hpp"
+#include "vision/feature_image.hpp"
+#include "vision/feature_removal.hpp"
+#include "vision/ground_profile.hpp"
+#include "vision/obstacle_extraction.hpp"
+#include "vision/segmentation_types.hpp"
+
+namespace sg {
+
+struct SegmenterParams {
+  CorrelationParams correlation;
+  GroundParams ground;
+  RemovalParams removal;
+  ObstacleParams obstacles;
+  bool parallel = true;  // TBB row bands; false runs the serial references (identical results)
+
+  template <class V>
+  void visit(V& v) {
+    v.group("correlation", correlation);
+    v.group("ground", ground);
+    v.group("removal", removal);
+    v.group("obstacles", obstacles);
+    v.field("parallel", parallel, 0, 1, "", "run the row-band parallel paths");
+  }
+  void validate() const {
+    validateParams(*this, "segmentation");
+    ground.validate();
+  }
+};
+
+class Segmenter {
+ public:
+  explicit Segmenter(const SegmenterParams& params = {});
+
+  // left_features/right_features: CV_8UC1 feature images of the same size (FeatureExtractor).
+  // Fills every field of `out` except timing_ms["features"]; out.timing_ms["total"]
+  // covers this call. `rig` supplies the mounting prior for the fallback.
+  void compute(const cv::Mat& left_features, const cv::Mat& right_features, const StereoRig& rig,
+               SegmentationResult& out);
+
+  // Forget the previous frame's ground line (a new sequence starts).
+  void reset();
+
+  const SegmenterParams& params() const { return params_; }
+
+ private:
+  SegmenterParams params_;
+  Correlator correlator_;
+  GroundEstimator ground_;
+  FeatureRemover remover_;
+  ObstacleExtractor obstacles_;
+  GroundProfile previous_ground_;     // last measured (Hough) profile
+  int previous_age_frames_ = 0;       // frames since it was measured
+  bool have_previous_ = false;
+  cv::Mat remaining_;                 // left features still unexplained
+  cv::Mat matches_;                   // CV_32S companion of the correlation
+  cv::Mat obstacle_score_;            // correlation while obstacles are taken out
+  std::vector<std::uint8_t> changed_rows_;
+};
+
+// Feature images of both images, then the segmentation; adds timing_ms["features"]
+// and makes timing_ms["total"] cover both. left/right: mono8 of the same size.
+void segmentPair(FeatureExtractor& features, Segmenter& segmenter, const cv::Mat& left, const cv::Mat& right,
+                 const StereoRig& rig, SegmentationResult& out);
+
+}  // namespace sg

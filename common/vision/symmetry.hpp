@@ -1,0 +1,113 @@
+#pragma once
+// Vertical symmetry of grey levels and edges inside an image region
+// (seed paper, Sec. II: "a human shape is characterized by a strong vertical
+// symmetry"). Used by HumanLocalizer inside each obstacle cluster only
+// (Sec. V), never over the whole frame.
+//
+// For a candidate axis column x, half-width k and rows [top, bottom]:
+//  - edge symmetry: the share of edge weight whose mirror pixel about x
+//    (within +- mirror_tolerance_px) is also an edge, in [0, 1];
+//  - grey symmetry: the normalised cross-correlation of the left half with
+//    the mirrored right half, in [-1, 1];
+//  - horizontal coverage: the share of the edge weight of the band widened by
+//    k/2 on both sides that falls inside the box (low when the box is too narrow);
+//  - column occupancy: the share of the box's columns holding any edge
+//    (low when the box is too wide).
+// The box top is not searched: it is the row where the edge weight of the
+// stripe starts (top_edge_fraction of the stripe's weight lies above it).
+//
+// Not re-entrant: one scanner per thread; it keeps its scratch across calls.
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "config/params.hpp"
+
+namespace sg {
+
+struct SymmetryParams {
+  int edge_threshold = 48;                  // Sobel |gx|+|gy| (grey levels, 3x3) marking an edge
+  int mirror_tolerance_px = 1;              // a mirrored edge may be this far off its ideal column
+  float outside_cluster_edge_weight = 0.2f; // weight of edges that the segmentation did not put in the cluster
+  float grey_weight = 0.25f;                // share of grey symmetry in the symmetry score (rest: edges)
+  float top_edge_fraction = 0.02f;          // stripe edge weight above the box top (fraction)
+  int axis_step_px = 1;                     // spacing of candidate axes
+  int width_step_px = 2;                    // spacing of candidate widths
+
+  template <class V>
+  void visit(V& v) {
+    v.field("edge_threshold", edge_threshold, 1, 2040, "grey levels", "Sobel |gx|+|gy| (3x3) marking an edge pixel");
+    v.field("mirror_tolerance_px", mirror_tolerance_px, 0, 4, "pixels",
+            "an edge's mirror may be this far from its ideal column (legs and arms are not exactly symmetric)");
+    v.field("outside_cluster_edge_weight", outside_cluster_edge_weight, 0.0, 1.0, "",
+            "weight of edges not labelled with the cluster (background, ground texture)");
+    v.field("grey_weight", grey_weight, 0.0, 1.0, "", "share of grey-level symmetry in the symmetry score");
+    v.field("top_edge_fraction", top_edge_fraction, 0.0, 0.3, "",
+            "share of the stripe's edge weight allowed above the box top");
+    v.field("axis_step_px", axis_step_px, 1, 16, "pixels", "spacing of candidate symmetry axes");
+    v.field("width_step_px", width_step_px, 1, 16, "pixels", "spacing of candidate box widths");
+  }
+  void validate() const { validateParams(*this, "symmetry"); }
+};
+
+// What to search in one region (all coordinates relative to the region).
+struct SymmetrySearch {
+  int min_half_width_px = 2;   // half-width range of candidate boxes
+  int max_half_width_px = 20;
+  int bottom_row = 0;          // box bottom (row, inclusive)
+  int min_height_px = 4;       // box heights accepted (bottom - top + 1)
+  int max_height_px = 1000;
+  double min_aspect = 1.5;     // height / width accepted
+  double max_aspect = 5.0;
+};
+
+struct SymmetryCandidate {
+  cv::Rect box;               // relative to the region
+  int axis_col = 0;           // relative to the region
+  float edge_symmetry = 0.0f; // [0, 1]
+  float grey_symmetry = 0.0f; // [-1, 1]
+  float coverage = 0.0f;      // [0, 1]
+  float occupancy = 0.0f;     // [0, 1]
+  float score = 0.0f;         // combined: symmetry * coverage * occupancy, [0, 1]
+  float edge_density = 0.0f;  // edge weight per pixel inside the box
+  float grey_stddev = 0.0f;   // grey-level standard deviation inside the box
+};
+
+class SymmetryScanner {
+ public:
+  explicit SymmetryScanner(const SymmetryParams& params);
+
+  // Edge weight image (CV_32F, [0, 1]) of a grey region: Sobel edges, weight 1
+  // where `cluster_mask` (CV_8U, same size, may be empty) is non-zero, else
+  // outside_cluster_edge_weight.
+  void edgeWeights(const cv::Mat& grey, const cv::Mat& cluster_mask, cv::Mat& weights) const;
+
+  // Every axis/width of `search` whose box fits the height and aspect limits,
+  // best-scoring width per axis. `grey` CV_8U and `weights` CV_32F, same size.
+  void compute(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
+               std::vector<SymmetryCandidate>& out);
+
+  // Symmetry measures of one box (relative to the region), for tests and tools.
+  SymmetryCandidate measure(const cv::Mat& grey, const cv::Mat& weights, int axis_col, int half_width, int top,
+                            int bottom);
+
+  const SymmetryParams& params() const { return params_; }
+
+ private:
+  void prepare(const cv::Mat& grey, const cv::Mat& weights);
+  void buildAxis(int axis, int max_half, int rows);
+  SymmetryCandidate evaluate(int axis, int half, int top, int bottom) const;
+  int findTop(int x0, int x1, int bottom) const;
+
+  SymmetryParams params_;
+  cv::Mat grey_f_;        // CV_64F copy of the region
+  cv::Mat weights_;       // CV_32F
+  cv::Mat mirror_;        // CV_32F, weights dilated horizontally by the tolerance
+  cv::Mat weight_integral_;  // CV_64F (rows+1) x (cols+1)
+  cv::Mat grey_integral_, grey_sq_integral_;
+  cv::Mat col_nonzero_;   // CV_32S (rows+1) x cols: per column, count of edge pixels above row
+  // Per-axis prefix tables, (max_half+1) x (rows+1), summed over j <= k and rows < r.
+  cv::Mat pe_, pm_, pa_, pb_, paa_, pbb_, pab_;
+};
+
+}  // namespace sg

@@ -1,0 +1,147 @@
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "analytic_scene.hpp"
+#include "test_helpers.hpp"
+#include "vision/segmenter.hpp"
+
+namespace sg {
+namespace {
+
+using test::AnalyticBox;
+using test::AnalyticSceneParams;
+using test::renderAnalyticScene;
+
+SegmenterParams paramsFor(int offsets) {
+  SegmenterParams p;
+  p.correlation.offsets = offsets;
+  return p;
+}
+
+// Fraction of the truly visible ground rows whose offset is within +-1 of the truth.
+double groundRowsWithin1(const GroundProfile& g, const std::vector<float>& truth, int offsets) {
+  int n = 0, ok = 0;
+  for (std::size_t y = 0; y < truth.size(); ++y) {
+    if (!std::isfinite(truth[y]) || truth[y] >= offsets - 1) continue;
+    ++n;
+    ok += std::abs(g.offset_per_row[y] - truth[y]) <= 1.0f;
+  }
+  return n ? static_cast<double>(ok) / n : 0.0;
+}
+
+TEST(SegmenterAnalytic, FlatGroundLineAndBackground) {
+  AnalyticSceneParams sp;
+  const auto scene = renderAnalyticScene(sp);
+  FeatureExtractor fx;
+  Segmenter seg(paramsFor(64));
+  SegmentationResult r;
+  segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+  EXPECT_EQ(r.ground.source, GroundSource::kHough);
+  EXPECT_GE(groundRowsWithin1(r.ground, scene.ground_offset_per_row, 64), 0.9);
+  EXPECT_NEAR(r.ground.background_offset, scene.background_offset, 1.0);
+  EXPECT_TRUE(r.obstacles.empty()) << r.obstacles.size() << " spurious obstacles, first at d=" << r.obstacles[0].offset_px;
+  for (const char* stage : {"features", "correlation", "ground", "removal", "obstacles", "total"})
+    EXPECT_TRUE(r.timing_ms.count(stage)) << stage;
+}
+
+TEST(SegmenterAnalytic, SlopeChangeIsFollowed) {
+  AnalyticSceneParams sp;
+  sp.slope = 0.12;
+  sp.slope_start_m = 12.0;
+  const auto scene = renderAnalyticScene(sp);
+  FeatureExtractor fx;
+  Segmenter seg(paramsFor(64));
+  SegmentationResult r;
+  segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+  EXPECT_EQ(r.ground.source, GroundSource::kHough);
+  EXPECT_GE(groundRowsWithin1(r.ground, scene.ground_offset_per_row, 64), 0.9);
+}
+
+TEST(SegmenterAnalytic, BoxesFoundAtTheirOffsets) {
+  AnalyticSceneParams sp;
+  sp.boxes = {AnalyticBox{-1.5, 8.0, 0.8, 1.8}, AnalyticBox{2.0, 14.0, 1.2, 1.5}};
+  const auto scene = renderAnalyticScene(sp);
+  FeatureExtractor fx;
+  Segmenter seg(paramsFor(64));
+  SegmentationResult r;
+  segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+  for (std::size_t k = 0; k < scene.box_rects.size(); ++k) {
+    const ObstacleCluster* found = nullptr;
+    for (const ObstacleCluster& o : r.obstacles)
+      if (test::iou(o.box, scene.box_rects[k]) >= 0.5) found = &o;
+    ASSERT_TRUE(found) << "box " << k << " " << scene.box_rects[k] << " not found";
+    EXPECT_NEAR(found->offset_px, scene.box_offsets[k], 1.0) << "box " << k;
+  }
+  EXPECT_LE(r.obstacles.size(), scene.box_rects.size() + 1);
+}
+
+TEST(SegmenterAnalytic, WeakGroundTextureFallsBackToThePrior) {
+  AnalyticSceneParams sp;
+  sp.ground_contrast = 6;  // below the edge threshold: no ground features
+  const auto scene = renderAnalyticScene(sp);
+  FeatureExtractor fx;
+  Segmenter seg(paramsFor(64));
+  SegmentationResult r;
+  segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+  EXPECT_EQ(r.ground.source, GroundSource::kPrior);
+  // The prior of a level rig at the true height is the truth.
+  EXPECT_GE(groundRowsWithin1(r.ground, scene.ground_offset_per_row, 64), 0.9);
+}
+
+TEST(SegmenterAnalytic, WeakGroundAfterAMeasuredFrameKeepsThePreviousLine) {
+  AnalyticSceneParams sp;
+  FeatureExtractor fx;
+  Segmenter seg(paramsFor(64));
+  SegmentationResult r;
+  const auto good = renderAnalyticScene(sp);
+  segmentPair(fx, seg, good.left, good.right, good.rig, r);
+  ASSERT_EQ(r.ground.source, GroundSource::kHough);
+  sp.ground_contrast = 6;
+  const auto weak = renderAnalyticScene(sp);
+  segmentPair(fx, seg, weak.left, weak.right, weak.rig, r);
+  EXPECT_EQ(r.ground.source, GroundSource::kPrevious);
+  EXPECT_GE(groundRowsWithin1(r.ground, weak.ground_offset_per_row, 64), 0.9);
+}
+
+TEST(SegmenterAnalytic, NoGroundAndNoMountingSaysNone) {
+  AnalyticSceneParams sp;
+  sp.ground_contrast = 6;
+  auto scene = renderAnalyticScene(sp);
+  scene.rig.mounting.reset();
+  FeatureExtractor fx;
+  Segmenter seg(paramsFor(64));
+  SegmentationResult r;
+  segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+  EXPECT_EQ(r.ground.source, GroundSource::kNone);
+}
+
+TEST(SegmenterAnalytic, BlackImagesGiveAnEmptyResult) {
+  const cv::Mat black = cv::Mat::zeros(60, 80, CV_8UC1);
+  StereoRig rig;
+  rig.focal_px = 100;
+  rig.baseline_m = 0.3;
+  rig.width = 80;
+  rig.height = 60;
+  rig.cx_px = 40;
+  rig.cy_px = 30;
+  FeatureExtractor fx;
+  Segmenter seg(paramsFor(32));
+  SegmentationResult r;
+  segmentPair(fx, seg, black, black, rig, r);
+  EXPECT_EQ(r.ground.source, GroundSource::kNone);
+  EXPECT_TRUE(r.obstacles.empty());
+  EXPECT_EQ(cv::countNonZero(r.labels), 0);
+}
+
+TEST(SegmenterAnalytic, DifferentSizesAreRejected) {
+  FeatureExtractor fx;
+  Segmenter seg;
+  SegmentationResult r;
+  StereoRig rig;
+  EXPECT_THROW(segmentPair(fx, seg, cv::Mat::zeros(10, 10, CV_8UC1), cv::Mat::zeros(10, 12, CV_8UC1), rig, r),
+               InputError);
+}
+
+}  // namespace
+}  // namespace sg
