@@ -1,0 +1,298 @@
+// Synthetic scene generator: the truth must agree with the scene geometry
+// (analytic formulas, not the renderer's own output).
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+#include <tbb/global_control.h>
+
+#include "config/errors.hpp"
+#include "io/synthetic_scene.hpp"
+
+namespace sg {
+namespace {
+
+SyntheticSceneParams smallScene() {
+  SyntheticSceneParams p;
+  p.width = 621;
+  p.height = 188;
+  p.focal_px = 360.75;
+  p.noise_sigma = 0.0;
+  return p;
+}
+
+double bilinear(const cv::Mat& img, double x, int y) {
+  const int x0 = static_cast<int>(std::floor(x));
+  const double a = x - x0;
+  return (1.0 - a) * img.at<std::uint8_t>(y, x0) + a * img.at<std::uint8_t>(y, x0 + 1);
+}
+
+TEST(SyntheticScene, FlatGroundOffsetPerRowMatchesThePlane) {
+  SyntheticSceneParams p = smallScene();
+  const StereoPair pair = renderSyntheticScene(p, 1);
+  ASSERT_TRUE(pair.truth.has_value());
+  const SceneTruth& t = *pair.truth;
+  const double cy = pair.rig.cy_px;
+  const double fB = p.focal_px * p.baseline_m;
+  int checked = 0;
+  for (int v = 0; v < p.height; ++v) {
+    const float d = t.ground_offset_per_row[static_cast<std::size_t>(v)];
+    // Flat plane, pitch 0: Z(v) = f h / (v - cy), offset = f B / Z = B (v - cy) / h.
+    const double expected = p.baseline_m * (v - cy) / p.camera_height_m;
+    const double z = fB / expected;
+    if (v > cy && z < p.background_distance_m - 1.0) {
+      ASSERT_FALSE(std::isnan(d)) << "row " << v;
+      EXPECT_NEAR(d, expected, 0.5) << "row " << v;
+      // Per-pixel truth on the ground agrees too.
+      for (int u = 0; u < p.width; u += 37) {
+        if (t.object_id.at<std::uint16_t>(v, u) == 0) {
+          EXPECT_NEAR(t.disparity.at<float>(v, u), expected, 0.5);
+        }
+      }
+      ++checked;
+    } else if (v <= cy) {
+      EXPECT_TRUE(std::isnan(d)) << "row " << v;
+    }
+  }
+  EXPECT_GT(checked, 80);
+  // The ground is hidden beyond the background distance: first ground row = projection of z = D.
+  const double first_row = cy + p.focal_px * p.camera_height_m / p.background_distance_m;
+  EXPECT_NEAR(t.horizon_row, std::ceil(first_row), 1.0);
+  EXPECT_NEAR(t.background_offset, fB / p.background_distance_m, 0.05);
+}
+
+TEST(SyntheticScene, PitchedCameraHorizonAndGroundOffset) {
+  SyntheticSceneParams p = smallScene();
+  p.pitch_rad = 0.05;
+  p.background_distance_m = 5000.0;
+  const StereoPair pair = renderSyntheticScene(p, 2);
+  const SceneTruth& t = *pair.truth;
+  const double horizon = pair.rig.cy_px - p.focal_px * std::tan(p.pitch_rad);
+  EXPECT_NEAR(t.horizon_row, horizon, 1.5);
+  for (int v = static_cast<int>(horizon) + 3; v < p.height; v += 5) {
+    // d(v) = B / h ((v - cy) cos(pitch) + f sin(pitch)), the rig's own prior formula.
+    EXPECT_NEAR(t.ground_offset_per_row[static_cast<std::size_t>(v)], pair.rig.groundOffsetPrior(v), 0.5) << v;
+  }
+}
+
+TEST(SyntheticScene, UphillGroundIsNearerThanFlat) {
+  SyntheticSceneParams p = smallScene();
+  p.terrain = TerrainProfile::kUphill;
+  p.slope = 0.08;
+  const StereoPair pair = renderSyntheticScene(p, 3);
+  const double cy = pair.rig.cy_px;
+  for (int v = static_cast<int>(cy) + 5; v < p.height; v += 7) {
+    // Plane y = h - s z: Z = h / ((v - cy) / f + s).
+    const double z = p.camera_height_m / ((v - cy) / p.focal_px + p.slope);
+    if (z > p.background_distance_m - 1.0) continue;
+    EXPECT_NEAR(pair.truth->ground_offset_per_row[static_cast<std::size_t>(v)], p.focal_px * p.baseline_m / z, 0.5);
+  }
+}
+
+TEST(SyntheticScene, SlopeChangeRowsFollowBothPlanes) {
+  SyntheticSceneParams p = smallScene();
+  p.terrain = TerrainProfile::kSlopeChange;
+  p.slope = 0.1;
+  p.slope_change_z_m = 12.0;
+  const StereoPair pair = renderSyntheticScene(p, 4);
+  const double cy = pair.rig.cy_px;
+  const double fB = p.focal_px * p.baseline_m;
+  for (int v = 0; v < p.height; ++v) {
+    const float d = pair.truth->ground_offset_per_row[static_cast<std::size_t>(v)];
+    if (std::isnan(d)) continue;
+    const double z = fB / static_cast<double>(d);
+    const double r = (v - cy) / p.focal_px;  // y / z of the ray
+    // The point at depth z must lie on the profile: y = h - profile(z).
+    const double profile = z < 12.0 ? 0.0 : 0.1 * (z - 12.0);
+    EXPECT_NEAR(r * z, p.camera_height_m - profile, 0.02 * z / 10.0 + 0.01) << "row " << v;
+  }
+}
+
+TEST(SyntheticScene, PersonAtKnownDistance) {
+  SyntheticSceneParams p = smallScene();
+  SyntheticPerson person;
+  person.x_m = 0.8;
+  person.z_m = 12.0;
+  person.height_m = 1.8;
+  person.yaw_rad = 0.0;  // facing sideways: the feet extend laterally, not in depth
+  p.people.push_back(person);
+  const StereoPair pair = renderSyntheticScene(p, 5);
+  const SceneTruth& t = *pair.truth;
+  ASSERT_EQ(t.objects.size(), 1u);
+  ASSERT_EQ(pair.labels.size(), 1u);
+  const ObjectLabel& l = t.objects[0];
+  EXPECT_EQ(l.type, "Pedestrian");
+  EXPECT_NEAR(l.location_m[0], 0.8, 1e-6);
+  EXPECT_NEAR(l.location_m[1], p.camera_height_m, 1e-6);
+  EXPECT_NEAR(l.location_m[2], 12.0, 1e-6);
+  EXPECT_NEAR(l.dimensions_m[0], 1.8, 0.08);
+  const double fB = p.focal_px * p.baseline_m;
+  const double cy = pair.rig.cy_px;
+  const double cx = pair.rig.cx_px;
+  // Feet row and head row from the pinhole model.
+  EXPECT_NEAR(l.box[3], cy + p.focal_px * p.camera_height_m / 12.0, 2.0);
+  EXPECT_NEAR(l.box[1], cy + p.focal_px * (p.camera_height_m - l.dimensions_m[0]) / 12.0, 2.0);
+  EXPECT_LT(l.box[0], cx + p.focal_px * 0.8 / 12.0);
+  EXPECT_GT(l.box[2], cx + p.focal_px * 0.8 / 12.0);
+  EXPECT_EQ(l.occlusion, 0);
+  EXPECT_NEAR(l.truncation, 0.0, 1e-9);
+  // Every pixel of the person has the disparity of a point within the body depth.
+  int n = 0;
+  for (int v = 0; v < p.height; ++v) {
+    for (int u = 0; u < p.width; ++u) {
+      if (t.object_id.at<std::uint16_t>(v, u) != 2) continue;
+      ++n;
+      const double z = fB / static_cast<double>(t.disparity.at<float>(v, u));
+      EXPECT_NEAR(z, 12.0, 0.4);
+    }
+  }
+  EXPECT_EQ(n, t.object_visible_px[0]);
+  // Roughly a 1.8 m x 0.5 m figure: area in pixels.
+  const double px_per_m = p.focal_px / 12.0;
+  EXPECT_GT(n, 0.25 * 1.8 * px_per_m * 0.5 * px_per_m);
+  EXPECT_LT(n, 1.0 * 1.8 * px_per_m * 0.6 * px_per_m);
+}
+
+TEST(SyntheticScene, PersonOnUphillStandsOnTheSlope) {
+  SyntheticSceneParams p = smallScene();
+  p.terrain = TerrainProfile::kUphill;
+  p.slope = 0.1;
+  SyntheticPerson person;
+  person.z_m = 20.0;
+  p.people.push_back(person);
+  const StereoPair pair = renderSyntheticScene(p, 6);
+  const ObjectLabel& l = pair.truth->objects[0];
+  EXPECT_NEAR(l.location_m[1], p.camera_height_m - 0.1 * 20.0, 1e-6);
+  EXPECT_NEAR(l.box[3], pair.rig.cy_px + p.focal_px * (p.camera_height_m - 2.0) / 20.0, 2.0);
+}
+
+TEST(SyntheticScene, PersonPartlyOutsideIsTruncatedAndOccludedPersonFlagged) {
+  SyntheticSceneParams p = smallScene();
+  SyntheticPerson edge;
+  edge.z_m = 10.0;
+  edge.x_m = (p.width - 1) / 2.0 / p.focal_px * 10.0;  // centred on the right image border
+  p.people.push_back(edge);
+  SyntheticPerson behind;
+  behind.z_m = 20.0;
+  behind.x_m = -1.0;
+  p.people.push_back(behind);
+  SyntheticObstacle wall;
+  wall.shape = ObstacleShape::kWall;
+  wall.x_m = -0.5;
+  wall.z_m = 12.0;
+  wall.width_m = 3.0;
+  wall.depth_m = 0.3;
+  wall.height_m = 2.5;
+  p.obstacles.push_back(wall);
+  const StereoPair pair = renderSyntheticScene(p, 7);
+  const auto& objs = pair.truth->objects;
+  ASSERT_EQ(objs.size(), 3u);
+  EXPECT_GT(objs[0].truncation, 0.3);
+  EXPECT_LT(objs[0].truncation, 0.7);
+  EXPECT_EQ(pair.truth->object_visible_px[1], 0);
+  EXPECT_EQ(objs[1].occlusion, 3);
+  EXPECT_EQ(objs[2].type, "Misc");
+  EXPECT_EQ(pair.labels.size(), 2u);  // the hidden person is not labelled
+}
+
+TEST(SyntheticScene, LeftRightConsistencyOnTheGround) {
+  SyntheticSceneParams p = smallScene();
+  p.terrain = TerrainProfile::kSlopeChange;
+  p.slope = 0.06;
+  p.transversal_slope = 0.03;
+  SyntheticPerson person;
+  person.z_m = 9.0;
+  p.people.push_back(person);
+  const StereoPair pair = renderSyntheticScene(p, 8);
+  const SceneTruth& t = *pair.truth;
+  std::mt19937 rng(8);
+  std::uniform_int_distribution<int> col(0, p.width - 1);
+  std::uniform_int_distribution<int> row(0, p.height - 1);
+  std::vector<double> errors;
+  double contrast = 0.0;
+  while (errors.size() < 400) {
+    const int u = col(rng);
+    const int v = row(rng);
+    if (t.object_id.at<std::uint16_t>(v, u) != 0) continue;
+    const double d = static_cast<double>(t.disparity.at<float>(v, u));
+    const double x = u - d;
+    if (x < 1.0 || x > p.width - 2.0) continue;
+    const double l = pair.left.at<std::uint8_t>(v, u);
+    errors.push_back(std::abs(l - bilinear(pair.right, x, v)));
+    // Same comparison at a wrong offset, for scale.
+    const double xw = x - 3.0;
+    if (xw >= 0.0) contrast += std::abs(l - bilinear(pair.right, xw, v));
+  }
+  std::sort(errors.begin(), errors.end());
+  const double median = errors[errors.size() / 2];
+  const double p90 = errors[errors.size() * 9 / 10];
+  EXPECT_LT(median, 2.0);
+  EXPECT_LT(p90, 6.0);
+  EXPECT_GT(contrast / static_cast<double>(errors.size()), 3.0 * median + 3.0);
+}
+
+TEST(SyntheticScene, SameSeedSameImagesAcrossThreadCounts) {
+  const SyntheticSceneParams p = randomSceneParams(42, 414, 125);
+  SyntheticSceneRenderer renderer(p);
+  StereoPair serial;
+  renderer.compute(42, serial, SyntheticSceneRenderer::Execution::kSerial);
+  for (int threads : {1, 2, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    StereoPair par;
+    renderer.compute(42, par, SyntheticSceneRenderer::Execution::kParallel);
+    EXPECT_EQ(cv::norm(serial.left, par.left, cv::NORM_INF), 0.0) << threads;
+    EXPECT_EQ(cv::norm(serial.right, par.right, cv::NORM_INF), 0.0) << threads;
+    EXPECT_EQ(cv::norm(serial.truth->disparity, par.truth->disparity, cv::NORM_INF), 0.0) << threads;
+  }
+  const StereoPair again = renderSyntheticScene(p, 42);
+  EXPECT_EQ(cv::norm(serial.left, again.left, cv::NORM_INF), 0.0);
+  EXPECT_EQ(again.id, "000042");
+  const StereoPair other = renderSyntheticScene(p, 43);
+  EXPECT_GT(cv::norm(serial.left, other.left, cv::NORM_L1), 0.0);
+}
+
+TEST(SyntheticScene, RandomScenesAreDeterministicAndVaried) {
+  int people = 0;
+  int with_obstacles = 0;
+  for (std::uint64_t seed = 0; seed < 40; ++seed) {
+    const SyntheticSceneParams a = randomSceneParams(seed);
+    const SyntheticSceneParams b = randomSceneParams(seed);
+    ASSERT_EQ(a.people.size(), b.people.size());
+    for (std::size_t i = 0; i < a.people.size(); ++i) EXPECT_EQ(a.people[i].z_m, b.people[i].z_m);
+    EXPECT_NO_THROW(a.validate());
+    EXPECT_GE(a.people.size(), 1u);
+    EXPECT_LE(a.people.size(), 4u);
+    people += static_cast<int>(a.people.size());
+    with_obstacles += a.obstacles.empty() ? 0 : 1;
+    for (const auto& person : a.people) {
+      EXPECT_GE(person.z_m, 5.0);
+      EXPECT_LE(person.z_m, 35.0);
+    }
+  }
+  EXPECT_GT(people, 60);
+  EXPECT_GT(with_obstacles, 15);
+}
+
+TEST(SyntheticScene, BadParamsNameTheField) {
+  SyntheticSceneParams p = smallScene();
+  p.focal_px = -1.0;
+  try {
+    p.validate();
+    FAIL() << "no error";
+  } catch (const ParamError& e) {
+    EXPECT_NE(std::string(e.what()).find("focal_px"), std::string::npos);
+  }
+  p = smallScene();
+  p.people.push_back(SyntheticPerson{});
+  p.people.back().z_m = -3.0;
+  EXPECT_THROW(p.validate(), ParamError);
+  try {
+    p.validate();
+  } catch (const ParamError& e) {
+    EXPECT_NE(std::string(e.what()).find("people[0].z_m"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace sg
