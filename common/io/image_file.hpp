@@ -1,0 +1,25 @@
+#pragma once
+// Reading stereo images from files as mono8, with errors that name the file.
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace sg {
+
+// Reads an 8-bit image (png, pgm, ppm, jpg, bmp) and converts colour to grey.
+// Throws InputError naming the file when it is missing, empty, truncated (PNG
+// without its IEND chunk, JPEG without its end marker), not decodable, or not
+// 8-bit: 16-bit images are rejected rather than scaled, because no scale is
+// right for every sensor and a silent guess would change every feature threshold.
+cv::Mat readMono8(const std::string& path);
+
+// True for the image file extensions the sources accept (case-insensitive):
+// .png .pgm .ppm .pnm .jpg .jpeg .bmp.
+bool isImageFileName(const std::string& path);
+
+// The image files directly inside `dir`, sorted by name. Throws InputError when
+// `dir` is not a directory.
+std::vector<std::string> listImageFiles(const std::string& dir);
+
+}  // namespace sg

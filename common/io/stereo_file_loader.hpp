@@ -1,0 +1,35 @@
+#pragma once
+// Loads a stereo pair from two image files and its calibration, rectifying when
+// the calibration says so. Shared by the pairs: and kitti: sources. Rectifiers
+// (and their remap tables) are built once per calibration file and image size.
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "camera/rectifier.hpp"
+#include "io/stereo_pair.hpp"
+
+namespace sg {
+
+class StereoFileLoader {
+ public:
+  // `fallback_mounting` is used when the calibration carries no mounting prior.
+  explicit StereoFileLoader(std::optional<Mounting> fallback_mounting = std::nullopt)
+      : fallback_mounting_(fallback_mounting) {}
+
+  // Reads both images as mono8, checks their sizes agree, rectifies, and fills
+  // pair.left, pair.right and pair.rig. An empty `calib_path` means the nominal
+  // rig (nominalCalibration). Throws InputError naming the file(s).
+  void load(const std::string& left_path, const std::string& right_path, const std::string& calib_path,
+            StereoPair& pair);
+
+  // The rectifier for a calibration at an image size (loaded once, then cached).
+  const Rectifier& rectifierFor(const std::string& calib_path, cv::Size image_size);
+
+ private:
+  std::optional<Mounting> fallback_mounting_;
+  std::map<std::string, std::unique_ptr<Rectifier>> rectifiers_;
+};
+
+}  // namespace sg
