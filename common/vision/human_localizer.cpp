@@ -281,7 +281,7 @@ bool HumanLocalizer::refineOffset(const cv::Mat& left, const cv::Mat& right, con
   }
   const double peak = scores[static_cast<std::size_t>(best - dlo)];
   zncc = static_cast<float>(peak);
-  if (peak < rp.min_zncc) return false;
+  if (peak < rp.min_integer_zncc) return false;  // no correlation peak at all
 
   double d = best;
   if (best > dlo && best < dhi) {
@@ -325,6 +325,19 @@ bool HumanLocalizer::refineOffset(const cv::Mat& left, const cv::Mat& right, con
     }
     if (std::abs(step) < 1e-3) break;
   }
+  // Trust is judged at the sub-pixel offset: fine texture decorrelates at
+  // integer offsets half a pixel off the true one.
+  double sr = 0.0, srr = 0.0, slr = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double rv = sampleRow(right.ptr<std::uint8_t>(samples_p_[i].y), samples_p_[i].x - d);
+    sr += rv;
+    srr += rv * rv;
+    slr += rv * samples_l_[i];
+  }
+  const double var_r = srr - sr * sr / nd;
+  const double final_zncc = var_r > 1e-6 ? (slr - sl * sr / nd) / std::sqrt(var_l * var_r) : -1.0;
+  zncc = static_cast<float>(std::max(peak, final_zncc));
+  if (static_cast<double>(zncc) < rp.min_zncc) return false;
   offset_px = static_cast<float>(d);
   return true;
 }

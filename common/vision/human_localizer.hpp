@@ -78,7 +78,8 @@ struct FilterParams {
 struct RefineParams {
   int search_radius_px = 3;         // offsets searched around the cluster offset
   int iterations = 4;               // Gauss-Newton sub-pixel iterations
-  double min_zncc = 0.3;            // below: the match is not trusted, the cluster offset is kept
+  double min_zncc = 0.5;            // below (at the sub-pixel offset): not trusted, the cluster offset is kept
+  double min_integer_zncc = 0.1;    // below (best integer offset): no correlation peak, no refinement
   double offset_sigma_px = 0.15;    // 1-sigma precision of a trusted refined offset (pixels)
   double fallback_sigma_px = 0.5;   // 1-sigma precision of the cluster offset (pixels)
   int min_pixels = 24;              // fewest edge pixels needed to match
@@ -87,7 +88,8 @@ struct RefineParams {
   void visit(V& v) {
     v.field("search_radius_px", search_radius_px, 0, 16, "pixels", "offsets searched around the cluster offset");
     v.field("iterations", iterations, 0, 20, "", "Gauss-Newton sub-pixel iterations");
-    v.field("min_zncc", min_zncc, -1.0, 1.0, "", "correlation below which the refined offset is not used");
+    v.field("min_zncc", min_zncc, -1.0, 1.0, "", "correlation at the sub-pixel offset below which it is not used");
+    v.field("min_integer_zncc", min_integer_zncc, -1.0, 1.0, "", "correlation at the best integer offset needed to refine");
     v.field("offset_sigma_px", offset_sigma_px, 0.01, 5.0, "pixels", "precision of a refined offset (1 sigma)");
     v.field("fallback_sigma_px", fallback_sigma_px, 0.01, 5.0, "pixels", "precision of the cluster offset (1 sigma)");
     v.field("min_pixels", min_pixels, 4, 100000, "pixels", "fewest edge pixels to match the box");

@@ -36,6 +36,7 @@ void SymmetryScanner::edgeWeights(const cv::Mat& grey, const cv::Mat& cluster_ma
   cv::Sobel(grey, gy, CV_16S, 0, 1, 3);
   weights.create(grey.size(), CV_32FC1);
   const float outside = cluster_mask.empty() ? 1.0f : params_.outside_cluster_edge_weight;
+  const float inv_full = 1.0f / (params_.full_weight_ratio * static_cast<float>(params_.edge_threshold));
   for (int r = 0; r < grey.rows; ++r) {
     const auto* px = gx.ptr<std::int16_t>(r);
     const auto* py = gy.ptr<std::int16_t>(r);
@@ -46,7 +47,9 @@ void SymmetryScanner::edgeWeights(const cv::Mat& grey, const cv::Mat& cluster_ma
       if (mag < params_.edge_threshold) {
         w[c] = 0.0f;
       } else {
-        w[c] = (m == nullptr || m[c] != 0) ? 1.0f : outside;
+        // Strong edges (silhouettes) count more than weak texture: weight ramps to 1 at full_weight_ratio x threshold.
+        const float strength = std::min(1.0f, static_cast<float>(mag) * inv_full);
+        w[c] = strength * ((m == nullptr || m[c] != 0) ? 1.0f : outside);
       }
     }
   }
@@ -71,6 +74,7 @@ void SymmetryScanner::prepare(const cv::Mat& grey, const cv::Mat& weights) {
     }
   }
   cv::integral(weights_, weight_integral_, CV_64F);
+  cv::integral(mirror_, mirror_integral_, CV_64F);
   cv::integral(grey, grey_integral_, grey_sq_integral_, CV_64F, CV_64F);
   col_nonzero_.create(weights.rows + 1, weights.cols, CV_32SC1);
   col_nonzero_.row(0).setTo(0);
@@ -78,7 +82,7 @@ void SymmetryScanner::prepare(const cv::Mat& grey, const cv::Mat& weights) {
     const float* w = weights_.ptr<float>(r);
     const int* above = col_nonzero_.ptr<int>(r);
     int* below = col_nonzero_.ptr<int>(r + 1);
-    for (int c = 0; c < weights.cols; ++c) below[c] = above[c] + (w[c] >= 0.5f ? 1 : 0);
+    for (int c = 0; c < weights.cols; ++c) below[c] = above[c] + (w[c] >= 0.25f ? 1 : 0);
   }
 }
 
@@ -130,7 +134,17 @@ SymmetryCandidate SymmetryScanner::evaluate(int axis, int half, int top, int bot
   c.box = cv::Rect(axis - half, top, 2 * half + 1, bottom - top + 1);
   const double esum = tableSum(pe_, half, top, bottom);
   const double msum = tableSum(pm_, half, top, bottom);
-  c.edge_symmetry = esum > 0.0 ? static_cast<float>(std::clamp(msum / esum, 0.0, 1.0)) : 0.0f;
+  // Share of edges with a mirrored edge, corrected for chance: in dense
+  // texture a dilated mirror finds an edge anyway, with probability equal to
+  // the density of the dilated edge map.
+  const double box_area = static_cast<double>(2 * half + 1) * (bottom - top + 1);
+  const double chance = boxSum(mirror_integral_, top, bottom, axis - half, axis + half) / box_area;
+  if (esum > 0.0 && chance < 0.999) {
+    const double ratio = std::clamp(msum / esum, 0.0, 1.0);
+    c.edge_symmetry = static_cast<float>(std::clamp((ratio - chance) / (1.0 - chance), 0.0, 1.0));
+  } else {
+    c.edge_symmetry = 0.0f;
+  }
 
   const double n = static_cast<double>(half) * (bottom - top + 1);
   const double sa = tableSum(pa_, half, top, bottom);

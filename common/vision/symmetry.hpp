@@ -6,7 +6,8 @@
 //
 // For a candidate axis column x, half-width k and rows [top, bottom]:
 //  - edge symmetry: the share of edge weight whose mirror pixel about x
-//    (within +- mirror_tolerance_px) is also an edge, in [0, 1];
+//    (within +- mirror_tolerance_px) is also an edge, corrected for the share
+//    expected by chance at the box's edge density, in [0, 1];
 //  - grey symmetry: the normalised cross-correlation of the left half with
 //    the mirrored right half, in [-1, 1];
 //  - horizontal coverage: the share of the edge weight of the band widened by
@@ -27,6 +28,7 @@ namespace sg {
 
 struct SymmetryParams {
   int edge_threshold = 48;                  // Sobel |gx|+|gy| (grey levels, 3x3) marking an edge
+  float full_weight_ratio = 3.0f;           // an edge weighs 1 from this multiple of edge_threshold on (less below)
   int mirror_tolerance_px = 1;              // a mirrored edge may be this far off its ideal column
   float outside_cluster_edge_weight = 0.2f; // weight of edges that the segmentation did not put in the cluster
   float grey_weight = 0.25f;                // share of grey symmetry in the symmetry score (rest: edges)
@@ -37,6 +39,8 @@ struct SymmetryParams {
   template <class V>
   void visit(V& v) {
     v.field("edge_threshold", edge_threshold, 1, 2040, "grey levels", "Sobel |gx|+|gy| (3x3) marking an edge pixel");
+    v.field("full_weight_ratio", full_weight_ratio, 1.0, 20.0, "",
+            "edges weigh magnitude / (ratio * edge_threshold), at most 1: silhouettes count more than texture");
     v.field("mirror_tolerance_px", mirror_tolerance_px, 0, 4, "pixels",
             "an edge's mirror may be this far from its ideal column (legs and arms are not exactly symmetric)");
     v.field("outside_cluster_edge_weight", outside_cluster_edge_weight, 0.0, 1.0, "",
@@ -104,6 +108,7 @@ class SymmetryScanner {
   cv::Mat weights_;       // CV_32F
   cv::Mat mirror_;        // CV_32F, weights dilated horizontally by the tolerance
   cv::Mat weight_integral_;  // CV_64F (rows+1) x (cols+1)
+  cv::Mat mirror_integral_;
   cv::Mat grey_integral_, grey_sq_integral_;
   cv::Mat col_nonzero_;   // CV_32S (rows+1) x cols: per column, count of edge pixels above row
   // Per-axis prefix tables, (max_half+1) x (rows+1), summed over j <= k and rows < r.

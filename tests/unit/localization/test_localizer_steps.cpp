@@ -1,0 +1,212 @@
+// Each localization step on hand-made scenes with known geometry.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "config/errors.hpp"
+#include "figure_scene.hpp"
+#include "vision/human_localizer.hpp"
+#include "vision/symmetry.hpp"
+
+namespace sg {
+namespace {
+
+LocalizerParams stepParams() {
+  LocalizerParams p;
+  p.score.min_score = 0.0;  // the steps, not the final threshold
+  return p;
+}
+
+TEST(Symmetry, AxisOfSymmetricFigureFoundWithinOnePixel) {
+  for (double axis : {200.0, 321.0, 433.5}) {
+    const auto scene = test::renderFigureScene({test::Figure{axis, 20.0, 1.7, true, 5}});
+    const cv::Rect box = scene.figure_boxes[0];
+    const cv::Rect region(box.x - 20, box.y - 5, box.width + 40, box.height + 10);
+    SymmetryScanner scanner(SymmetryParams{});
+    cv::Mat weights;
+    scanner.edgeWeights(scene.left(region), cv::Mat(), weights);
+    SymmetrySearch search;
+    search.min_half_width_px = 5;
+    search.max_half_width_px = 20;
+    search.bottom_row = box.y + box.height - 1 - region.y;
+    search.min_height_px = 30;
+    search.max_height_px = 90;
+    std::vector<SymmetryCandidate> out;
+    scanner.compute(scene.left(region), weights, search, out);
+    ASSERT_FALSE(out.empty());
+    const auto best = std::max_element(out.begin(), out.end(),
+                                       [](const auto& a, const auto& b) { return a.score < b.score; });
+    EXPECT_NEAR(best->axis_col + region.x, axis, 1.0) << "score " << best->score;
+    EXPECT_GT(best->edge_symmetry, 0.15f);
+  }
+}
+
+TEST(Symmetry, AsymmetricBoxScoresLowerThanFigure) {
+  const auto scene = test::renderFigureScene({test::Figure{320.0, 20.0, 1.7, true, 5}});
+  const cv::Rect box = scene.figure_boxes[0];
+  SymmetryScanner scanner(SymmetryParams{});
+  const cv::Rect region(box.x - 30, box.y - 5, box.width + 60, box.height + 10);
+  cv::Mat weights;
+  scanner.edgeWeights(scene.left(region), cv::Mat(), weights);
+  const int bottom = box.y + box.height - 1 - region.y;
+  const auto centred = scanner.measure(scene.left(region), weights, 320 - region.x, 12, 5, bottom);
+  const auto shifted = scanner.measure(scene.left(region), weights, 320 - region.x + 14, 12, 5, bottom);
+  EXPECT_GT(centred.edge_symmetry, shifted.edge_symmetry + 0.1f);
+}
+
+TEST(Symmetry, BoxOutsideRegionIsAnInputError) {
+  SymmetryScanner scanner(SymmetryParams{});
+  cv::Mat grey(20, 20, CV_8UC1, cv::Scalar(0)), weights(20, 20, CV_32FC1, cv::Scalar(0));
+  EXPECT_THROW(scanner.measure(grey, weights, 2, 5, 0, 10), InputError);
+}
+
+TEST(GroundLine, RowForOffsetFollowsTheProfile) {
+  const auto scene = test::renderFigureScene({});
+  // d(v) = B (v - cy) / h  ->  v = cy + d h / B
+  for (double d : {5.0, 12.5, 30.0}) {
+    const double row = groundRowForOffset(scene.segmentation.ground, scene.rig, d, 150.0);
+    EXPECT_NEAR(row, 100.0 + d * 1.65 / 0.5, 0.51) << d;
+  }
+}
+
+TEST(GroundLine, UnknownProfileFallsBackToMountingPrior) {
+  const auto scene = test::renderFigureScene({});
+  GroundProfile unknown;
+  unknown.offset_per_row.assign(240, GroundProfile::kUnknown);
+  EXPECT_NEAR(groundRowForOffset(unknown, scene.rig, 20.0, 0.0), 100.0 + 20.0 * 1.65 / 0.5, 1e-6);
+  StereoRig no_mounting = scene.rig;
+  no_mounting.mounting.reset();
+  EXPECT_TRUE(std::isnan(groundRowForOffset(unknown, no_mounting, 20.0, 0.0)));
+}
+
+TEST(StereoRefinement, SubPixelOffsetAndDistanceFromKnownOffset) {
+  for (double d : {12.3, 20.0, 27.7}) {
+    const auto scene = test::renderFigureScene({test::Figure{320.0, d, 1.7, false, 9}}, 1.0);
+    HumanLocalizer localizer(stepParams());
+    float offset = static_cast<float>(std::round(d));
+    float zncc = 0.0f;
+    cv::Mat mask = scene.figure_id(scene.figure_boxes[0]) > 0;
+    ASSERT_TRUE(localizer.refineOffset(scene.left, scene.right, scene.figure_boxes[0], mask, offset, zncc))
+        << "offset " << offset << " zncc " << zncc;
+    EXPECT_NEAR(offset, d, 0.08) << "zncc " << zncc;
+    const double z = scene.rig.depthFromOffset(offset);
+    const double z_true = scene.rig.depthFromOffset(d);
+    EXPECT_LT(std::abs(z - z_true) / z_true, 0.01);
+  }
+}
+
+TEST(StereoRefinement, UniformPatchIsNotTrusted) {
+  cv::Mat flat(100, 200, CV_8UC1, cv::Scalar(90));
+  HumanLocalizer localizer(stepParams());
+  float offset = 10.0f;
+  float zncc = 0.0f;
+  EXPECT_FALSE(localizer.refineOffset(flat, flat, cv::Rect(50, 20, 40, 60), cv::Mat(), offset, zncc));
+  EXPECT_FLOAT_EQ(offset, 10.0f);
+}
+
+TEST(GroundContact, BoxBottomStretchedToTheGroundRow) {
+  auto scene = test::renderFigureScene({test::Figure{320.0, 20.0, 1.7, true, 5}});
+  // The segmentation cut the legs (paper, figure 1a): cluster box ends 12 rows above the feet.
+  auto& cluster = scene.segmentation.obstacles[0];
+  cluster.box.height -= 12;
+  HumanLocalizer localizer(stepParams());
+  std::vector<HumanDetection> out;
+  localizer.compute(scene.left, scene.right, scene.rig, scene.segmentation, out);
+  ASSERT_FALSE(out.empty());
+  const HumanDetection& h = out.front();
+  const double feet = scene.feet_rows[0];
+  EXPECT_NEAR(static_cast<double>(h.box.y + h.box.height), feet, 1.5);
+  EXPECT_NEAR(h.ground_contact_row, feet, 1.0);
+  EXPECT_NEAR(static_cast<double>(h.box.x + 0.5f * h.box.width), 320.0, 3.0);
+  const double z_true = scene.rig.depthFromOffset(20.0);
+  EXPECT_LT(std::abs(static_cast<double>(h.distance_m) - z_true) / z_true, 0.01);
+  EXPECT_NEAR(h.position_m.z(), z_true, 0.01 * z_true);
+  EXPECT_NEAR(h.position_m.y(), 1.65, 0.1);  // feet on the ground, camera 1.65 m above it
+  EXPECT_NEAR(h.position_m.x(), 0.0, 0.2);
+  EXPECT_GT(h.distance_sigma_m, 0.0f);
+}
+
+TEST(Localizer, FindsTwoFiguresAtTheirDistances) {
+  const auto scene = test::renderFigureScene(
+      {test::Figure{180.0, 14.0, 1.8, true, 5}, test::Figure{450.0, 26.0, 1.2, false, 8}});
+  HumanLocalizer localizer(stepParams());
+  std::vector<HumanDetection> out;
+  localizer.compute(scene.left, scene.right, scene.rig, scene.segmentation, out);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const cv::Rect2f truth(scene.figure_boxes[i]);
+    const auto it = std::find_if(out.begin(), out.end(), [&](const HumanDetection& h) { return boxIoU(h.box, truth) > 0.5; });
+    ASSERT_NE(it, out.end()) << "figure " << i;
+    const double z_true = scene.rig.depthFromOffset(scene.figures[i].offset_px);
+    EXPECT_LT(std::abs(static_cast<double>(it->distance_m) - z_true) / z_true, 0.01) << "figure " << i;
+  }
+}
+
+TEST(Localizer, EmptySegmentationGivesNoDetection) {
+  const auto scene = test::renderFigureScene({});
+  HumanLocalizer localizer(stepParams());
+  std::vector<HumanDetection> out(3);
+  localizer.compute(scene.left, scene.right, scene.rig, SegmentationResult{}, out);
+  EXPECT_TRUE(out.empty());
+}
+
+TEST(Localizer, WideUniformObstacleIsRejected) {
+  // A uniform grey wall standing at offset 20: no edges inside, no symmetry of a person.
+  auto scene = test::renderFigureScene({});
+  cv::Rect wall(250, 60, 160, 106);
+  scene.left(wall).setTo(120);
+  scene.right(wall - cv::Point(20, 0)).setTo(120);
+  ObstacleCluster c;
+  c.label = kLabelFirstObstacle;
+  c.offset_px = 20;
+  c.box = wall;
+  scene.segmentation.obstacles = {c};
+  LocalizerParams p;
+  HumanLocalizer localizer(p);
+  std::vector<HumanDetection> out;
+  localizer.compute(scene.left, scene.right, scene.rig, scene.segmentation, out);
+  EXPECT_TRUE(out.empty());
+}
+
+TEST(Localizer, MismatchedImagesAreAnInputError) {
+  HumanLocalizer localizer(stepParams());
+  std::vector<HumanDetection> out;
+  StereoRig rig;
+  rig.focal_px = 100;
+  rig.baseline_m = 0.5;
+  EXPECT_THROW(localizer.compute(cv::Mat(10, 10, CV_8UC1), cv::Mat(10, 12, CV_8UC1), rig, SegmentationResult{}, out),
+               InputError);
+}
+
+TEST(ShapeScore, FigureScoresHigherThanBackgroundPatch) {
+  const auto scene = test::renderFigureScene({test::Figure{320.0, 30.0, 1.8, true, 5}});
+  HumanLocalizer localizer(stepParams());
+  const float person = localizer.shapeScore(scene.left, cv::Rect2f(scene.figure_boxes[0]));
+  const float ground = localizer.shapeScore(scene.left, cv::Rect2f(40, 120, 40, 100));
+  EXPECT_GT(person, ground);
+}
+
+TEST(LocalizerParams, MinAboveMaxNamesBothFields) {
+  LocalizerParams p;
+  p.candidates.min_height_m = 2.5;
+  try {
+    p.validate();
+    FAIL() << "no error";
+  } catch (const ParamError& e) {
+    EXPECT_NE(std::string(e.what()).find("candidates.min_height_m"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("candidates.max_height_m"), std::string::npos) << e.what();
+  }
+}
+
+TEST(LocalizerParams, OutOfRangeFieldIsNamed) {
+  LocalizerParams p;
+  p.refine.search_radius_px = 99;
+  try {
+    HumanLocalizer localizer(p);
+    FAIL() << "no error";
+  } catch (const ParamError& e) {
+    EXPECT_NE(std::string(e.what()).find("localizer.refine.search_radius_px"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace sg
