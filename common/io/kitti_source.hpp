@@ -31,8 +31,4 @@ class KittiSource final : public FrameSource {
   StereoFileLoader loader_;
 };
 
-// Parses a KITTI object label file (15 fields per line, 16 with a score).
-// Throws InputError naming the file, line and field.
-std::vector<ObjectLabel> readKittiLabelFile(const std::string& path);
-
 }  // namespace sg

@@ -31,7 +31,6 @@ bool SyntheticSource::next(StereoPair& pair) {
   const std::uint64_t seed = seed_ + position_;
   const auto index = static_cast<std::int64_t>(position_);
   ++position_;
-#ifdef SG_HAVE_SYNTHETIC_SCENE
   SyntheticSceneParams params = randomSceneParams(seed);
   if (calib_) {
     const StereoRig& rig = calib_->rig;
@@ -49,11 +48,6 @@ bool SyntheticSource::next(StereoPair& pair) {
   pair = renderSyntheticScene(params, seed);
   pair.index = index;
   return true;
-#else
-  (void)pair;
-  (void)index;
-  throw InputError("synthetic:" + std::to_string(seed) + ": the scene generator is not part of this build");
-#endif
 }
 
 std::string SyntheticSource::describe() const {

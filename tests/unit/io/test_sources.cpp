@@ -13,7 +13,6 @@
 #include "config/errors.hpp"
 #include "io/frame_source.hpp"
 #include "io/image_file.hpp"
-#include "io/kitti_source.hpp"
 
 namespace sg {
 namespace {
@@ -168,15 +167,6 @@ TEST(KittiSource, LabelsAreReadAndMissingCalibrationIsNamed) {
   EXPECT_DOUBLE_EQ(*pair.labels[1].score, 0.9);
   expectInputError([&] { source->next(pair); }, {"calib/000001.txt", "not found"});
   EXPECT_FALSE(source->next(pair));
-}
-
-TEST(KittiLabels, MalformedLineNamesLineAndField) {
-  TempDir dir;
-  const std::string path =
-      dir.write("label.txt", "Pedestrian 0.00 0 -0.20 10.0 5.0 20.0 forty 1.75 0.60 0.80 -1.0 1.6 12.5 1.57\n");
-  expectInputError([&] { readKittiLabelFile(path); }, {"label.txt", "line 1", "'bottom'", "forty"});
-  const std::string short_path = dir.write("short.txt", "Car 0 0 0 1 2 3 4\n");
-  expectInputError([&] { readKittiLabelFile(short_path); }, {"short.txt", "8 fields"});
 }
 
 // ---- real data, pairs layout ---------------------------------------------------
