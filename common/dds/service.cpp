@@ -68,7 +68,7 @@ ServiceRuntime::~ServiceRuntime() {
   }
 }
 
-std::vector<dds_attach_t> ServiceRuntime::wait() {
+std::vector<dds_attach_t> ServiceRuntime::wait(std::chrono::steady_clock::time_point until) {
   const auto now = std::chrono::steady_clock::now();
   if (now >= next_metrics_) {
     publishMetrics(false);
@@ -77,8 +77,8 @@ std::vector<dds_attach_t> ServiceRuntime::wait() {
     next_metrics_ += period;
     if (next_metrics_ < now) next_metrics_ = now + period;
   }
-  const auto timeout = std::chrono::duration_cast<std::chrono::milliseconds>(next_metrics_ - now);
-  return waitset_.wait(std::max(timeout, std::chrono::milliseconds(1)));
+  const auto timeout = std::chrono::duration_cast<std::chrono::milliseconds>(std::min(next_metrics_, until) - now);
+  return waitset_.wait(std::max(timeout, std::chrono::milliseconds(0)));
 }
 
 bool ServiceRuntime::stopping() const { return stop_requested_ || signals_.requested() || guard_.triggered(); }

@@ -65,8 +65,9 @@ class ServiceRuntime {
   spdlog::logger& log() { return *log_; }
 
   void attach(dds_entity_t condition, dds_attach_t token) { waitset_.attach(condition, token); }
-  // Waits for data or the next metrics tick (publishing metrics when due).
-  std::vector<dds_attach_t> wait();
+  // Waits for data, the next metrics tick (publishing metrics when due) or `until`.
+  std::vector<dds_attach_t> wait(
+      std::chrono::steady_clock::time_point until = std::chrono::steady_clock::time_point::max());
   bool stopping() const;
   void requestStop() { stop_requested_ = true; }
 

@@ -1,0 +1,140 @@
+#include "acquisition_service.hpp"
+
+#include <chrono>
+#include <thread>
+
+#include "config/errors.hpp"
+
+namespace sg {
+
+namespace {
+
+cv::Mat continuousMono(const cv::Mat& image) { return image.isContinuous() ? image : image.clone(); }
+
+}  // namespace
+
+AcquisitionService::AcquisitionService(dds::ShutdownSignal& signals, const AcquisitionParams& params,
+                                       const std::string& source_spec, const std::string& calib_path,
+                                       std::uint64_t frame_limit)
+    : params_(params),
+      frame_limit_(frame_limit),
+      runtime_(signals, "acquisition", params.transport),
+      source_(openFrameSource(source_spec, calib_path)),
+      topic_(runtime_.participant(), dds::kStereoFrameTopic),
+      writer_(runtime_.participant(), topic_, params.transport.images) {
+  runtime_.log().info("source {}, rate {} Hz, frames {}", source_->describe(), params_.rate_hz,
+                      frame_limit_ == 0 ? std::string("unbounded") : std::to_string(frame_limit_));
+  for (int i = 0; i < params_.preload_frames; ++i) {
+    StereoPair pair;
+    if (!source_->next(pair)) break;
+    preloaded_.push_back(std::move(pair));
+  }
+  if (params_.preload_frames > 0 && preloaded_.empty()) throw InputError("source " + source_spec + " has no frames");
+}
+
+bool AcquisitionService::nextPair(StereoPair& pair) {
+  if (!preloaded_.empty()) {
+    pair = preloaded_[preload_next_];
+    preload_next_ = (preload_next_ + 1) % preloaded_.size();
+    return true;
+  }
+  return source_->next(pair);
+}
+
+void AcquisitionService::publish(const StereoPair& pair, bool last) {
+  data_.info.frame_id = next_frame_id_;
+  data_.info.capture_time_ns = dds::realtimeNowNs();
+  data_.info.source = pair.id;
+  data_.info.sample_seq = next_seq_++;
+  data_.info.end_of_stream = last;
+  data_.info.payload_valid = true;
+  data_.rig = pair.rig;
+  data_.rig.width = pair.left.cols;
+  data_.rig.height = pair.left.rows;
+  data_.left = continuousMono(pair.left);
+  data_.right = continuousMono(pair.right);
+  sg_idl_StereoFrame sample{};
+  dds::fillStereoFrame(data_, sample);
+  writer_.write(sample);
+  runtime_.stats().published(static_cast<double>(dds::realtimeNowNs() - data_.info.capture_time_ns) * 1e-6);
+}
+
+void AcquisitionService::publishEndMarker() {
+  dds::FrameInfo marker;
+  marker.frame_id = next_frame_id_;
+  marker.capture_time_ns = dds::realtimeNowNs();
+  marker.sample_seq = next_seq_++;
+  marker.end_of_stream = true;
+  marker.payload_valid = false;
+  sg_idl_StereoFrame sample{};
+  dds::fillHeader(marker, sample.header);
+  writer_.write(sample);
+}
+
+void AcquisitionService::run() {
+  auto& log = runtime_.log();
+  const auto match_timeout =
+      std::chrono::milliseconds(static_cast<long>(params_.transport.match_timeout_s * 1000.0));
+  if (params_.min_readers > 0) {
+    const auto count = static_cast<std::uint32_t>(params_.min_readers);
+    if (writer_.waitForReaders(count, match_timeout, [this] { return runtime_.stopping(); })) {
+      log.info("{} reader(s) matched", writer_.matchedReaders());
+    } else if (!runtime_.stopping()) {
+      log.warn("only {} of {} reader(s) matched within {} s; publishing anyway", writer_.matchedReaders(), count,
+               params_.transport.match_timeout_s);
+    }
+  }
+  using Clock = std::chrono::steady_clock;
+  const auto period = params_.rate_hz > 0.0
+                          ? std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / params_.rate_hz))
+                          : Clock::duration::zero();
+  auto next_tick = Clock::now();
+  bool ended = false;
+  StereoPair pair;
+  while (!runtime_.stopping()) {
+    // Pace: wait (for signals and the metrics tick) until the frame is due.
+    while (!runtime_.stopping() && Clock::now() < next_tick) runtime_.wait(next_tick);
+    if (runtime_.stopping()) break;
+    if (Clock::now() >= next_tick) runtime_.wait(Clock::now());  // keeps metrics going at full speed
+    next_tick += period;
+    if (next_tick < Clock::now() - period) next_tick = Clock::now();  // do not burst after a stall
+
+    bool have = false;
+    const auto start = Clock::now();
+    try {
+      have = nextPair(pair);
+    } catch (const InputError& e) {
+      runtime_.stats().received(1);
+      runtime_.stats().dropped(dds::kDropSourceError);
+      log.warn("frame {} dropped (source error): {}", next_frame_id_, e.what());
+      ++next_frame_id_;
+      continue;
+    }
+    if (!have) {
+      log.info("source ended after {} frames", next_frame_id_);
+      publishEndMarker();
+      ended = true;
+      break;
+    }
+    runtime_.stats().received(1);
+    const bool last = frame_limit_ > 0 && next_frame_id_ + 1 >= frame_limit_;
+    try {
+      publish(pair, last);
+    } catch (const InputError& e) {
+      runtime_.stats().dropped(dds::kDropMalformed);
+      log.warn("frame {} dropped (malformed): {}", next_frame_id_, e.what());
+      if (last) publishEndMarker();
+    }
+    runtime_.stats().processed(dds::msBetween(start, Clock::now()));
+    ++next_frame_id_;
+    if (last) {
+      ended = true;
+      break;
+    }
+  }
+  if (!ended) publishEndMarker();  // stopped by a signal: tell the stages downstream
+  writer_.waitForAcks(std::chrono::seconds(5));
+  runtime_.finish();
+}
+
+}  // namespace sg

@@ -1,0 +1,27 @@
+#include "segmentation_service.hpp"
+
+namespace sg {
+
+SegmentationService::SegmentationService(dds::ShutdownSignal& signals, const SegmentationServiceParams& params,
+                                         std::uint64_t frame_limit)
+    : runtime_(signals, "segmentation", params.transport),
+      pipe_(runtime_, dds::kFeatureFrameTopic, dds::kSegmentationTopic, frame_limit),
+      segmenter_(params.segmenter) {}
+
+void SegmentationService::compute(const sg_idl_FeatureFrame& in, const dds::FrameInfo& info,
+                                  sg_idl_Segmentation& out) {
+  dds::readFeatureFrame(in, input_);
+  segmenter_.compute(input_.left_features, input_.right_features, input_.rig, output_.result);
+  output_.info = info;
+  output_.rig = input_.rig;
+  encoder_.fill(output_, out);
+}
+
+void SegmentationService::run() {
+  pipe_.run([this](const sg_idl_FeatureFrame& in, const dds::FrameInfo& info, sg_idl_Segmentation& out) {
+    compute(in, info, out);
+  });
+  runtime_.finish();
+}
+
+}  // namespace sg
