@@ -42,13 +42,17 @@ void FeatureRemover::removeRows(const cv::Mat& left, const cv::Mat& right, const
     const float offset = ground.offset_per_row.empty() ? GroundProfile::kUnknown
                                                        : ground.offset_per_row[static_cast<std::size_t>(y)];
     if (!std::isfinite(offset)) continue;
-    const int d0 = std::max(static_cast<int>(std::floor(offset)) - params_.offset_tolerance_px, 0);
-    const int d1 = static_cast<int>(std::ceil(offset)) + params_.offset_tolerance_px;
-    const std::uint8_t label = y >= ground.horizon_row ? kLabelGround : kLabelBackground;
+    const bool is_ground = y >= ground.horizon_row;
+    const std::uint8_t label = is_ground ? kLabelGround : kLabelBackground;
+    // Transversal slope: the ground offset changes along the row (the background does not).
+    const float per_column = is_ground ? ground.offset_per_column : 0.0f;
     bool changed = false;
     for (int x = 0; x < w; ++x) {
       const int a = l[x];
       if (a == 0) continue;
+      const float centre = offset + per_column * (static_cast<float>(x) - ground.reference_column);
+      const int d0 = std::max(static_cast<int>(std::floor(centre)) - params_.offset_tolerance_px, 0);
+      const int d1 = static_cast<int>(std::ceil(centre)) + params_.offset_tolerance_px;
       for (int d = d0; d <= d1 && d <= x; ++d) {
         const int b = r[x - d];
         if (b != 0 && std::abs(a - b) <= tol) {

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "config/errors.hpp"
+#include "vision/correlation.hpp"
 
 namespace sg {
 
@@ -141,6 +142,66 @@ float GroundEstimator::backgroundOffset(const cv::Mat& score, int rows_above) co
   return static_cast<float>(best - sums.begin());
 }
 
+void GroundEstimator::estimateRoll(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
+                                   GroundProfile& ground) {
+  ground.offset_per_column = 0.0f;
+  ground.reference_column = static_cast<float>(rig.focal_px > 0 ? rig.cx_px : left.cols / 2.0);
+  const int strips = params_.roll_strips;
+  if (strips < 3 || ground.source == GroundSource::kNone || left.empty() ||
+      static_cast<int>(ground.offset_per_row.size()) != left.rows)
+    return;
+  const int w = left.cols;
+  const int search = params_.roll_search_px;
+  const int bins = 2 * search + 1;
+  roll_hist_.assign(static_cast<std::size_t>(strips * bins), 0.0);
+  const int tol = 12;  // grey levels, as the correlation default
+  for (int y = std::max(ground.horizon_row + 2, 0); y < left.rows; ++y) {
+    const float g = ground.offset_per_row[static_cast<std::size_t>(y)];
+    if (!std::isfinite(g)) continue;
+    const int base = static_cast<int>(std::lround(g));
+    const std::uint8_t* l = left.ptr<std::uint8_t>(y);
+    const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+    for (int k = 0; k < strips; ++k) {
+      const int x0 = k * w / strips;
+      const int x1 = (k + 1) * w / strips;
+      for (int b = 0; b < bins; ++b) {
+        const int d = base + b - search;
+        if (d < 0) continue;
+        const int from = std::max(x0, d);
+        if (from >= x1) continue;
+        roll_hist_[static_cast<std::size_t>(k * bins + b)] += countRowMatches(l, r, from, x1, d, tol);
+      }
+    }
+  }
+  // Peak per strip (with parabolic refinement), weighted by its height above the strip's median.
+  double sw = 0, sx = 0, sd = 0, sxx = 0, sxd = 0;
+  int used = 0;
+  std::vector<double> sorted(static_cast<std::size_t>(bins));
+  for (int k = 0; k < strips; ++k) {
+    const double* h = &roll_hist_[static_cast<std::size_t>(k * bins)];
+    const int best = static_cast<int>(std::max_element(h, h + bins) - h);
+    sorted.assign(h, h + bins);
+    std::nth_element(sorted.begin(), sorted.begin() + bins / 2, sorted.end());
+    const double excess = h[best] - sorted[static_cast<std::size_t>(bins / 2)];
+    if (excess <= 0.0 || best == 0 || best == bins - 1) continue;
+    const double den = h[best - 1] - 2 * h[best] + h[best + 1];
+    const double sub = den < 0 ? 0.5 * (h[best - 1] - h[best + 1]) / den : 0.0;
+    const double delta = best - search + sub;
+    const double xc = (k + 0.5) * w / strips - static_cast<double>(ground.reference_column);
+    sw += excess;
+    sx += excess * xc;
+    sd += excess * delta;
+    sxx += excess * xc * xc;
+    sxd += excess * xc * delta;
+    ++used;
+  }
+  const double det = sw * sxx - sx * sx;
+  if (used < 3 || std::abs(det) < 1e-9) return;
+  const double slope = (sw * sxd - sx * sd) / det;
+  if (std::abs(slope) * w < params_.min_roll_px) return;
+  ground.offset_per_column = static_cast<float>(slope);
+}
+
 void GroundEstimator::compute(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous,
                               int previous_age_frames, GroundProfile& out) {
   if (score.empty() || score.type() != CV_32F) throw InputError("ground: the correlation image must be CV_32F");
@@ -165,6 +226,7 @@ void GroundEstimator::compute(const cv::Mat& score, const StereoRig& rig, const 
 
   out.offset_per_row.assign(static_cast<std::size_t>(rows), GroundProfile::kUnknown);
   out.vertices.clear();
+  out.offset_per_column = 0.0f;
 
   double junction = -1.0;
   if (measured) {

@@ -40,6 +40,10 @@ struct GroundParams {
   // Background line above the horizon.
   float min_background_score = 0.5f;  // summed score of the best background column; below: offset 0 (infinity)
   // Fallback when the ground is not measured.
+  // Transversal slope (beyond the paper): offsets of column strips around the line.
+  int roll_strips = 8;                // column strips measured
+  int roll_search_px = 12;            // offsets searched on either side of the line
+  double min_roll_px = 1.0;           // a change across the image below this is ignored (level ground)
   bool prefer_previous = true;        // previous frame's line before the mounting prior
   int max_previous_age_frames = 10;   // a previous line older than this is not used
 
@@ -57,6 +61,9 @@ struct GroundParams {
     v.field("piecewise", piecewise, 0, 1, "", "fit a second ground segment (slope change)");
     v.field("min_segment_rows", min_segment_rows, 1, 100000, "rows", "support needed by the second segment");
     v.field("min_background_score", min_background_score, 0.0, 1e9, "score", "weakest accepted background line");
+    v.field("roll_strips", roll_strips, 0, 64, "", "column strips for the transversal slope (0 = off)");
+    v.field("roll_search_px", roll_search_px, 1, 64, "pixels", "offsets searched around the line per strip");
+    v.field("min_roll_px", min_roll_px, 0.0, 100.0, "pixels", "smallest offset change across the image that counts");
     v.field("prefer_previous", prefer_previous, 0, 1, "", "use the previous frame's line before the prior");
     v.field("max_previous_age_frames", max_previous_age_frames, 0, 100000, "frames", "oldest usable previous line");
   }
@@ -87,6 +94,11 @@ class GroundEstimator {
   const std::optional<GroundLine>& mainLine() const { return main_line_; }
   const std::optional<GroundLine>& secondLine() const { return second_line_; }
 
+  // Transversal slope: fills ground.offset_per_column / reference_column from the
+  // offsets of column strips of the ground rows around the line (feature images).
+  void estimateRoll(const cv::Mat& left_features, const cv::Mat& right_features, const StereoRig& rig,
+                    GroundProfile& ground);
+
   const GroundParams& params() const { return params_; }
 
  private:
@@ -106,6 +118,7 @@ class GroundEstimator {
   std::vector<int> row_peak_begin_;  // peaks_ index of each row's first peak, rows + 1 entries
   mutable std::vector<float> accumulator_;
   std::vector<std::uint8_t> use_;
+  std::vector<double> roll_hist_;
   std::optional<GroundLine> main_line_;
   std::optional<GroundLine> second_line_;
 };

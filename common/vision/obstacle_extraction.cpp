@@ -10,13 +10,21 @@ namespace sg {
 
 namespace {
 
-// Left pixel x matches the right row at some offset in [d0, d1].
-inline bool matchAt(const std::uint8_t* l, const std::uint8_t* r, int x, int d0, int d1, int tol) {
-  const int a = l[x];
-  if (a == 0) return false;
+// Left pixel x matches the right row at some offset in [d0, d1]: every feature pixel of the
+// window [x - half, x + half] (inside the row, at least the centre) has a right feature within tol.
+inline bool matchAt(const std::uint8_t* l, const std::uint8_t* r, int x, int d0, int d1, int tol, int half,
+                    int width) {
+  if (l[x] == 0) return false;
+  const int k0 = std::max(-half, -x);
+  const int k1 = std::min(half, width - 1 - x);
   for (int d = std::max(d0, 0); d <= d1 && d <= x; ++d) {
-    const int b = r[x - d];
-    if (b != 0 && std::abs(a - b) <= tol) return true;
+    bool ok = true;
+    for (int k = std::max(k0, d - x); k <= k1 && ok; ++k) {
+      const int a = l[x + k];
+      const int b = r[x + k - d];
+      ok = a == 0 ? k != 0 : (b != 0 && std::abs(a - b) <= tol);
+    }
+    if (ok) return true;
   }
   return false;
 }
@@ -33,6 +41,7 @@ ObstacleExtractor::ObstacleExtractor(const ObstacleParams& params) : params_(par
 
 void ObstacleExtractor::prepareContactRows(const GroundProfile& ground, int rows, int offsets) {
   contact_row_.assign(static_cast<std::size_t>(offsets), rows);
+  row_limit_.assign(static_cast<std::size_t>(offsets), rows - 1);
   if (ground.source == GroundSource::kNone || static_cast<int>(ground.offset_per_row.size()) != rows) return;
   const int top = std::clamp(ground.horizon_row, 0, rows);
   for (int d = 0; d < offsets; ++d) {
@@ -43,15 +52,19 @@ void ObstacleExtractor::prepareContactRows(const GroundProfile& ground, int rows
         break;
       }
     }
+    // An obstacle at offset d hides ground farther than itself; rows whose ground is about as
+    // near (or nearer) show the ground and its residue, not the obstacle.
+    for (int y = top; y < rows; ++y) {
+      const float g = ground.offset_per_row[static_cast<std::size_t>(y)];
+      if (std::isfinite(g) && static_cast<double>(g) >= d - params_.ground_clearance_px) {
+        row_limit_[static_cast<std::size_t>(d)] = y - 1;
+        break;
+      }
+    }
   }
 }
 
-int ObstacleExtractor::rowLimit(int offset) const {
-  const int rows = static_cast<int>(row_median_.size());
-  const int contact = contact_row_[static_cast<std::size_t>(offset)];
-  if (contact >= rows) return rows - 1;  // nearer than the nearest visible ground: every row
-  return contact - params_.ground_band_px - 1;
-}
+int ObstacleExtractor::rowLimit(int offset) const { return row_limit_[static_cast<std::size_t>(offset)]; }
 
 void ObstacleExtractor::offsetHistogram(const cv::Mat& matches, const GroundProfile& ground) {
   const int rows = matches.rows;
@@ -137,6 +150,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   const int offsets = correlator.params().offsets;
   const int tol = params_.offset_tolerance_px;
   const int grey = params_.grey_tolerance;
+  const int half = params_.match_half_window_px;
   obstacles.clear();
   banned_.assign(static_cast<std::size_t>(offsets), 0);
   row_median_.assign(static_cast<std::size_t>(rows), 0);
@@ -155,7 +169,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
       bool changed = false;
       for (int x = box.x; x < box.x + box.width; ++x) {
-        if (!matchAt(l, r, x, d0, d1, grey)) continue;
+        if (!matchAt(l, r, x, d0, d1, grey, half, cols)) continue;
         ++count;
         if (clear_label >= 0) {
           l[x] = 0;
@@ -185,7 +199,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
       const std::uint8_t* r = right.ptr<std::uint8_t>(y);
       for (int x = 0; x < cols; ++x)
-        if (matchAt(l, r, x, best - tol, best + tol, grey)) col_hist_[static_cast<std::size_t>(x)] += 1.0f;
+        if (matchAt(l, r, x, best - tol, best + tol, grey, half, cols)) col_hist_[static_cast<std::size_t>(x)] += 1.0f;
     }
     Extent cx = extent(col_hist_, 0, cols - 1, 0, cols - 1);
     Extent cy;
@@ -196,7 +210,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
         const std::uint8_t* r = right.ptr<std::uint8_t>(y);
         for (int x = cx.lo; x <= cx.hi; ++x)
-          if (matchAt(l, r, x, best - tol, best + tol, grey)) row_hist_[static_cast<std::size_t>(y)] += 1.0f;
+          if (matchAt(l, r, x, best - tol, best + tol, grey, half, cols)) row_hist_[static_cast<std::size_t>(y)] += 1.0f;
       }
       cy = extent(row_hist_, 0, limit, 0, limit);
       if (cy.hi >= cy.lo) {
@@ -205,7 +219,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
           const std::uint8_t* r = right.ptr<std::uint8_t>(y);
           for (int x = 0; x < cols; ++x)
-            if (matchAt(l, r, x, best - tol, best + tol, grey)) col_hist_[static_cast<std::size_t>(x)] += 1.0f;
+            if (matchAt(l, r, x, best - tol, best + tol, grey, half, cols)) col_hist_[static_cast<std::size_t>(x)] += 1.0f;
         }
         cx = extent(col_hist_, 0, cols - 1, cx.lo, cx.hi);
       }
@@ -234,7 +248,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           const std::uint8_t* r = right.ptr<std::uint8_t>(y);
           for (int x = 0; x < cols; ++x) {
             if (x >= x0 && x <= x1) continue;
-            if (matchAt(l, r, x, d - tol, d + tol, grey)) col_hist_[static_cast<std::size_t>(x)] += 1.0f;
+            if (matchAt(l, r, x, d - tol, d + tol, grey, half, cols)) col_hist_[static_cast<std::size_t>(x)] += 1.0f;
           }
         }
         // Runs of strong columns starting within gap_px of the cluster's sides.
@@ -268,7 +282,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           const std::uint8_t* r = right.ptr<std::uint8_t>(y);
           for (int x = ex0; x <= ex1; ++x) {
             if (x >= x0 && x <= x1) continue;
-            if (matchAt(l, r, x, d - tol, d + tol, grey)) row_hist_[static_cast<std::size_t>(y)] += 1.0f;
+            if (matchAt(l, r, x, d - tol, d + tol, grey, half, cols)) row_hist_[static_cast<std::size_t>(y)] += 1.0f;
           }
         }
         const Extent ey = extent(row_hist_, ya, yb, ya, yb);
@@ -297,7 +311,9 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     }
     const cv::Rect box(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
     const int count = sweepBox(box, dmin - tol, dmax + tol, -1);
-    if (floating || count < params_.min_cluster_features || box.height < params_.min_height_px ||
+    const int present = cv::countNonZero(remaining(box));
+    const bool unmatched = count < params_.min_match_fraction * present;
+    if (floating || unmatched || count < params_.min_cluster_features || box.height < params_.min_height_px ||
         box.width < params_.min_width_px) {
       // Not an obstacle: drop the evidence of d* in the box so that the next candidate comes up.
       if (sweepBox(box, best - tol, best + tol, kLabelUnassigned) == 0) banned_[static_cast<std::size_t>(best)] = 1;

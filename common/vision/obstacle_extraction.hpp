@@ -33,6 +33,8 @@ struct ObstacleParams {
   int max_iterations = 24;          // candidates examined per frame (rejected ones included)
   int offset_tolerance_px = 1;      // offsets within +-this of d* match
   int grey_tolerance = 12;          // grey levels, as in the correlation
+  int match_half_window_px = 1;     // a pixel matches when its horizontal neighbours within this match too:
+                                    // chance matches (occluded bands, aliased texture) fall by a power of 3
   int min_row_excess = 3;           // matches above the row median: the row shows something at that offset
   int min_peak_matches = 120;       // histogram excess of d*; below: nothing significant is left
   double extent_fraction = 0.2;     // histogram bins above this fraction of the peak belong to the obstacle
@@ -41,9 +43,11 @@ struct ObstacleParams {
   int min_height_px = 12;           // smaller clusters are rejected
   int min_width_px = 4;
   int min_cluster_features = 60;    // matched feature pixels needed for an obstacle
+  double min_match_fraction = 0.35; // matched share of the box's remaining features: chance matches of
+                                    // unmatched texture (occlusions, aliasing) stay well below it
   int contact_tolerance_px = 12;    // allowed gap between the cluster bottom and its ground contact row ...
   double contact_tolerance_fraction = 0.35;  // ... or this fraction of its height, whichever is larger
-  int ground_band_px = 2;           // rows just above the contact row are left out (ground residue)
+  double ground_clearance_px = 2.5;  // rows whose ground offset is within this of d are left out (ground residue)
   double background_margin_px = 1.5;  // offsets within this of the background line are background residue
   bool grow_walls = true;           // grow clusters over neighbouring offsets (walls receding in depth)
   int min_growth_matches = 20;      // matched pixels an extension needs
@@ -55,6 +59,7 @@ struct ObstacleParams {
     v.field("max_iterations", max_iterations, 0, 1000, "", "candidates examined per frame");
     v.field("offset_tolerance_px", offset_tolerance_px, 0, 16, "pixels", "offset tolerance around d*");
     v.field("grey_tolerance", grey_tolerance, 0, 254, "grey levels", "largest left/right grey difference that matches");
+    v.field("match_half_window_px", match_half_window_px, 0, 8, "pixels", "half width of the matching window");
     v.field("min_row_excess", min_row_excess, 1, 100000, "pixels", "row excess over its median that counts");
     v.field("min_peak_matches", min_peak_matches, 1, 10000000, "pixels", "weakest offset histogram peak");
     v.field("extent_fraction", extent_fraction, 0.0, 1.0, "", "histogram fraction of the peak inside an obstacle");
@@ -63,9 +68,11 @@ struct ObstacleParams {
     v.field("min_height_px", min_height_px, 1, 100000, "pixels", "smallest obstacle height");
     v.field("min_width_px", min_width_px, 1, 100000, "pixels", "smallest obstacle width");
     v.field("min_cluster_features", min_cluster_features, 1, 10000000, "pixels", "smallest cluster");
+    v.field("min_match_fraction", min_match_fraction, 0.0, 1.0, "", "matched share of the box's features");
     v.field("contact_tolerance_px", contact_tolerance_px, 0, 100000, "pixels", "bottom to ground contact gap");
     v.field("contact_tolerance_fraction", contact_tolerance_fraction, 0.0, 10.0, "", "same, fraction of the height");
-    v.field("ground_band_px", ground_band_px, 0, 100, "pixels", "rows above the contact row left out");
+    v.field("ground_clearance_px", ground_clearance_px, 0.0, 100.0, "pixels",
+            "histograms of offset d skip rows whose ground offset is above d minus this");
     v.field("background_margin_px", background_margin_px, 0.0, 100.0, "pixels", "background residue margin");
     v.field("grow_walls", grow_walls, 0, 1, "", "grow clusters over neighbouring offsets");
     v.field("min_growth_matches", min_growth_matches, 1, 10000000, "pixels", "matches an extension needs");
@@ -101,6 +108,7 @@ class ObstacleExtractor {
 
   ObstacleParams params_;
   std::vector<int> contact_row_;   // per offset: ground contact row, rows when none
+  std::vector<int> row_limit_;     // per offset: last row counted in its histograms
   std::vector<float> offset_hist_;
   std::vector<int> row_median_;
   std::vector<int> row_values_;

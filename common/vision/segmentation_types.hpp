@@ -24,7 +24,11 @@ const char* toString(GroundSource source);
 // background (above it): the polyline of the paper's figure 4a.
 struct GroundProfile {
   static constexpr float kUnknown = std::numeric_limits<float>::quiet_NaN();
-  std::vector<float> offset_per_row;   // offset (pixels) per image row, NaN where unknown
+  std::vector<float> offset_per_row;   // offset (pixels) per image row at column reference_column, NaN where unknown
+  // Transversal slope: below the horizon the ground offset at column x is
+  // offset_per_row[y] + offset_per_column * (x - reference_column). 0 for level ground.
+  float offset_per_column = 0.0f;
+  float reference_column = 0.0f;
   int horizon_row = -1;                // rows above it belong to the background line
   float background_offset = kUnknown;  // offset of the vertical background line (pixels)
   std::vector<cv::Point2f> vertices;   // polyline vertices (x = offset, y = row), top to bottom

@@ -53,6 +53,7 @@ void Segmenter::compute(const cv::Mat& left_features, const cv::Mat& right_featu
   } else if (have_previous_) {
     ++previous_age_frames_;
   }
+  ground_.estimateRoll(left_features, right_features, rig, out.ground);
   out.timing_ms["ground"] = msSince(t);
 
   t = Clock::now();

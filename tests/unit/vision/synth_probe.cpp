@@ -1,0 +1,73 @@
+// Diagnostic: per-seed statistics of the segmentation on synthetic scenes (not a test).
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+#include "io/synthetic_scene.hpp"
+#include "test_helpers.hpp"
+#include "vision/segmenter.hpp"
+
+using namespace sg;
+
+int main(int argc, char** argv) {
+  const int n = argc > 1 ? std::atoi(argv[1]) : 10;
+  const int w = argc > 2 ? std::atoi(argv[2]) : 1242;
+  const int h = argc > 3 ? std::atoi(argv[3]) : 375;
+  int found = 0, wanted = 0, spurious = 0;
+  for (int seed = 1; seed <= n; ++seed) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const SyntheticSceneParams sp = randomSceneParams(static_cast<std::uint64_t>(seed), w, h);
+    const StereoPair pair = renderSyntheticScene(sp, static_cast<std::uint64_t>(seed));
+    const auto t1 = std::chrono::steady_clock::now();
+    FeatureExtractor fx;
+    Segmenter seg;
+    SegmentationResult r;
+    segmentPair(fx, seg, pair.left, pair.right, pair.rig, r);
+    const SceneTruth& t = *pair.truth;
+    int rows = 0, ok = 0;
+    for (std::size_t y = 0; y < t.ground_offset_per_row.size(); ++y) {
+      if (!std::isfinite(t.ground_offset_per_row[y])) continue;
+      ++rows;
+      ok += std::abs(r.ground.offset_per_row[y] - t.ground_offset_per_row[y]) <= 1.0f;
+    }
+    std::printf("seed %d terrain %d slope %.3f weak %d shadows %d trans %.3f: ground %s %d/%d bg %.1f/%.1f  render %.0f ms seg %.0f ms\n", seed,
+                static_cast<int>(sp.terrain), sp.slope, sp.weak_ground_texture, sp.shadows, sp.transversal_slope,
+                toString(r.ground.source), ok, rows, static_cast<double>(r.ground.background_offset),
+                static_cast<double>(t.background_offset),
+                std::chrono::duration<double, std::milli>(t1 - t0).count(), r.timing_ms["total"]);
+    std::vector<int> used(r.obstacles.size(), 0);
+    for (std::size_t k = 0; k < t.objects.size(); ++k) {
+      const ObjectLabel& o = t.objects[k];
+      const cv::Rect box(cv::Point(static_cast<int>(o.box[0]), static_cast<int>(o.box[1])),
+                         cv::Point(static_cast<int>(o.box[2]) + 1, static_cast<int>(o.box[3]) + 1));
+      const double d_true = pair.rig.focal_px * pair.rig.baseline_m / o.location_m[2];
+      const bool want = box.height > 40 && o.location_m[2] < 30.0;
+      int best = -1;
+      double best_iou = 0;
+      for (std::size_t j = 0; j < r.obstacles.size(); ++j) {
+        const double v = test::iou(r.obstacles[j].box, box);
+        if (v > best_iou) { best_iou = v; best = static_cast<int>(j); }
+      }
+      if (best >= 0 && best_iou > 0.2) used[static_cast<std::size_t>(best)] = 1;
+      const bool hit = best >= 0 && best_iou >= 0.5 && std::abs(r.obstacles[static_cast<std::size_t>(best)].offset_px - d_true) <= 1.0;
+      if (want) { ++wanted; found += hit; }
+      std::printf("   truth %-10s z %5.1f d %5.1f box [%d %d %d %d] vis %d %s | best iou %.2f d %d %s\n", o.type.c_str(), o.location_m[2], d_true,
+                  box.x, box.y, box.x + box.width - 1, box.y + box.height - 1, t.object_visible_px[k], want ? "WANT" : "    ",
+                  best_iou, best >= 0 ? r.obstacles[static_cast<std::size_t>(best)].offset_px : -1, want ? (hit ? "ok" : "MISS") : "");
+    }
+    for (std::size_t j = 0; j < r.obstacles.size(); ++j) {
+      // Spurious: overlaps no truth object.
+      const auto& ob = r.obstacles[j];
+      int on_objects = 0;
+      for (int y = ob.box.y; y < ob.box.y + ob.box.height; ++y)
+        for (int x = ob.box.x; x < ob.box.x + ob.box.width; ++x)
+          if (r.labels.at<std::uint8_t>(y, x) == ob.label && t.object_id.at<std::uint16_t>(y, x) >= 2) ++on_objects;
+      const bool spur = on_objects < ob.feature_count / 2;
+      spurious += spur;
+      std::printf("   found d %d [%d-%d] box [%d %d %d %d] feat %d on-objects %d %s\n", ob.offset_px, ob.min_offset_px, ob.max_offset_px, ob.box.x, ob.box.y,
+                  ob.box.x + ob.box.width - 1, ob.box.y + ob.box.height - 1, ob.feature_count, on_objects, spur ? "SPURIOUS" : "");
+    }
+  }
+  std::printf("found %d / %d, spurious %d over %d frames\n", found, wanted, spurious, n);
+}
