@@ -9,43 +9,43 @@ namespace sg::synth {
 // ---------------------------------------------------------------- noise
 
 double valueNoise2(double x, double y, std::uint32_t seed) {
-  const double fx = std::floor(x);
-  const double fy = std::floor(y);
-  const auto ix = static_cast<std::int64_t>(fx);
-  const auto iy = static_cast<std::int64_t>(fy);
-  const double sx = smooth01(x - fx);
-  const double sy = smooth01(y - fy);
-  const double v00 = hashUnit(hash3(ix, iy, 0, seed));
-  const double v10 = hashUnit(hash3(ix + 1, iy, 0, seed));
-  const double v01 = hashUnit(hash3(ix, iy + 1, 0, seed));
-  const double v11 = hashUnit(hash3(ix + 1, iy + 1, 0, seed));
+  const std::int64_t ix = floorToInt(x);
+  const std::int64_t iy = floorToInt(y);
+  const double sx = smooth01(x - static_cast<double>(ix));
+  const double sy = smooth01(y - static_cast<double>(iy));
+  const double v00 = hashUnit(latticeHash(ix, iy, 0, seed));
+  const double v10 = hashUnit(latticeHash(ix + 1, iy, 0, seed));
+  const double v01 = hashUnit(latticeHash(ix, iy + 1, 0, seed));
+  const double v11 = hashUnit(latticeHash(ix + 1, iy + 1, 0, seed));
   const double a = v00 + (v10 - v00) * sx;
   const double b = v01 + (v11 - v01) * sx;
   return a + (b - a) * sy;
 }
 
 double valueNoise3(double x, double y, double z, std::uint32_t seed) {
-  const double fx = std::floor(x);
-  const double fy = std::floor(y);
-  const double fz = std::floor(z);
-  const auto ix = static_cast<std::int64_t>(fx);
-  const auto iy = static_cast<std::int64_t>(fy);
-  const auto iz = static_cast<std::int64_t>(fz);
-  const double sx = smooth01(x - fx);
-  const double sy = smooth01(y - fy);
-  const double sz = smooth01(z - fz);
+  const std::int64_t ix = floorToInt(x);
+  const std::int64_t iy = floorToInt(y);
+  const std::int64_t iz = floorToInt(z);
+  const double sx = smooth01(x - static_cast<double>(ix));
+  const double sy = smooth01(y - static_cast<double>(iy));
+  const double sz = smooth01(z - static_cast<double>(iz));
   double layer[2];
   for (int k = 0; k < 2; ++k) {
-    const double v00 = hashUnit(hash3(ix, iy, iz + k, seed));
-    const double v10 = hashUnit(hash3(ix + 1, iy, iz + k, seed));
-    const double v01 = hashUnit(hash3(ix, iy + 1, iz + k, seed));
-    const double v11 = hashUnit(hash3(ix + 1, iy + 1, iz + k, seed));
+    const double v00 = hashUnit(latticeHash(ix, iy, iz + k, seed));
+    const double v10 = hashUnit(latticeHash(ix + 1, iy, iz + k, seed));
+    const double v01 = hashUnit(latticeHash(ix, iy + 1, iz + k, seed));
+    const double v11 = hashUnit(latticeHash(ix + 1, iy + 1, iz + k, seed));
     const double a = v00 + (v10 - v00) * sx;
     const double b = v01 + (v11 - v01) * sx;
     layer[k] = a + (b - a) * sy;
   }
   return layer[0] + (layer[1] - layer[0]) * sz;
 }
+
+namespace {
+const double kOctaveCos[4] = {0.8660254037844387, 0.17364817766693041, -0.6427876096865393, 0.9396926207859084};
+const double kOctaveSin[4] = {0.5, 0.984807753012208, 0.766044443118978, -0.3420201433256687};
+}  // namespace
 
 double fbm2(double x, double y, double wavelength, int octaves, double gain, double footprint, std::uint32_t seed) {
   double sum = 0.0;
@@ -56,7 +56,13 @@ double fbm2(double x, double y, double wavelength, int octaves, double gain, dou
     const double w = bandWeight(lambda, footprint);
     if (w > 0.0) {
       // Offsets decorrelate the octaves' lattices.
-      sum += amp * w * (valueNoise2(x / lambda + 17.3 * i, y / lambda - 5.1 * i, seed + static_cast<std::uint32_t>(i)) - 0.5);
+      // Each octave on a rotated lattice: no axis-aligned blockiness.
+      const double c = kOctaveCos[i & 3];
+      const double s = kOctaveSin[i & 3];
+      sum += amp * w *
+             (valueNoise2((c * x - s * y) / lambda + 17.3 * i, (s * x + c * y) / lambda - 5.1 * i,
+                          seed + static_cast<std::uint32_t>(i)) -
+              0.5);
     }
     norm += amp;
     amp *= gain;
@@ -583,16 +589,16 @@ double Scene::hillTop(double x) const {
 
 double Scene::groundAlbedo(double x, double z, double fp) const {
   const std::uint32_t s = ground_seed_;
-  const double large = fbm2(x, z, 9.0, 3, 0.6, fp, s);
-  const double mid = fbm2(x, z, 1.2, 3, 0.6, fp, s + 10);
+  const double large = fbm2(x, z, 9.0, 2, 0.6, fp, s);
+  const double mid = fbm2(x, z, 1.2, 2, 0.7, fp, s + 10);
   // Gravel-like blobs: thresholded noise, faded to its mean when unresolved.
   const double gw = bandWeight(0.35, fp);
   double gravel = 0.0;
   if (gw > 0.0) {
-    const double n = valueNoise2(x / 0.11 + 0.3, z / 0.11 - 0.7, s + 20);
+    const double n = valueNoise2((0.94 * x - 0.34 * z) / 0.11 + 0.3, (0.34 * x + 0.94 * z) / 0.11 - 0.7, s + 20);
     gravel = gw * (smoothstep(0.55, 0.75, n) - 0.3) + gw * 0.6 * (0.25 - smoothstep(0.0, 0.22, n));
   }
-  const double fine = fbm2(x, z, 0.05, 3, 0.6, fp, s + 30);
+  const double fine = fbm2(x, z, 0.04, 2, 0.7, fp, s + 30);
   const double albedo = 0.5 + ground_contrast_ * (0.55 * large + 0.7 * mid + 0.35 * gravel + 0.45 * fine);
   return std::clamp(albedo, 0.02, 0.98);
 }
@@ -645,7 +651,7 @@ double Scene::radiance(const Hit& hit, const Vec3& o, const Vec3& d, double foot
     // the grazing angle; take several samples along the pixel's row extent.
     const double cos_inc = std::max(std::abs(hit.normal.dot(d)), 1e-3);
     const double stretch = 1.0 / cos_inc;
-    const int n = std::clamp(static_cast<int>(std::ceil(stretch / 2.0)), 1, 8);
+    const int n = std::clamp(static_cast<int>(std::ceil(stretch / 3.0)), 1, 4);
     double albedo = 0.0;
     if (n == 1) {
       albedo = groundAlbedo(p.x(), p.z(), fp * stretch);

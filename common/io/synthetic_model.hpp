@@ -39,8 +39,20 @@ inline std::uint32_t hash3(std::int64_t x, std::int64_t y, std::int64_t z, std::
   return h;
 }
 
+// Cheap lattice hash for the value noise (one finaliser round).
+inline std::uint32_t latticeHash(std::int64_t x, std::int64_t y, std::int64_t z, std::uint32_t seed) {
+  return mix32(static_cast<std::uint32_t>(x) * 0x8da6b343U ^ static_cast<std::uint32_t>(y) * 0xd8163841U ^
+               static_cast<std::uint32_t>(z) * 0xcb1ab31fU ^ seed * 0x9e3779b9U);
+}
+
 // Uniform in [0, 1).
 inline double hashUnit(std::uint32_t h) { return static_cast<double>(h >> 8) * (1.0 / 16777216.0); }
+
+// floor() without a library call (the baseline x86-64 target has no SSE4.1 round).
+inline std::int64_t floorToInt(double x) {
+  const auto i = static_cast<std::int64_t>(x);
+  return i - (static_cast<double>(i) > x ? 1 : 0);
+}
 
 inline double smooth01(double t) { return t * t * (3.0 - 2.0 * t); }
 
