@@ -232,6 +232,163 @@ TEST(SyntheticScene, LeftRightConsistencyOnTheGround) {
   EXPECT_GT(contrast / static_cast<double>(errors.size()), 3.0 * median + 3.0);
 }
 
+TEST(SyntheticScene, TransversalSlopeGroundDisparityFollowsTheTiltedPlane) {
+  SyntheticSceneParams p = smallScene();
+  p.transversal_slope = 0.05;
+  const StereoPair pair = renderSyntheticScene(p, 9);
+  const SceneTruth& t = *pair.truth;
+  const double cx = pair.rig.cx_px;
+  const double cy = pair.rig.cy_px;
+  int checked = 0;
+  for (int v = 0; v < p.height; v += 3) {
+    for (int u = 0; u < p.width; u += 11) {
+      if (t.object_id.at<std::uint16_t>(v, u) != 0) continue;
+      // Plane y = h - q x: d = B ((v - cy) + q (u - cx)) / h.
+      const double expected = p.baseline_m * ((v - cy) + p.transversal_slope * (u - cx)) / p.camera_height_m;
+      EXPECT_NEAR(t.disparity.at<float>(v, u), expected, 0.05) << u << "," << v;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 1000);
+  // The ground horizon tilts: on the right the ground rises, so it shows higher up in the image.
+  auto firstGroundRow = [&](int u) {
+    for (int v = 0; v < p.height; ++v) {
+      if (t.object_id.at<std::uint16_t>(v, u) == 0) return v;
+    }
+    return p.height;
+  };
+  EXPECT_GT(firstGroundRow(5), firstGroundRow(p.width - 5) + 10);
+}
+
+TEST(SyntheticScene, DownhillGroundIsFartherAndHorizonLower) {
+  SyntheticSceneParams p = smallScene();
+  p.terrain = TerrainProfile::kDownhill;
+  p.slope = 0.06;
+  const StereoPair pair = renderSyntheticScene(p, 10);
+  const double cy = pair.rig.cy_px;
+  // The ground plane y = h + s z vanishes at v = cy + f s.
+  EXPECT_GT(pair.truth->horizon_row, cy + p.focal_px * p.slope - 0.5);
+  for (int v = pair.truth->horizon_row + 2; v < p.height; v += 5) {
+    const double z = p.camera_height_m / ((v - cy) / p.focal_px - p.slope);
+    EXPECT_NEAR(pair.truth->ground_offset_per_row[static_cast<std::size_t>(v)], p.focal_px * p.baseline_m / z, 0.5);
+  }
+}
+
+TEST(SyntheticScene, LongWallSpansManyOffsets) {
+  SyntheticSceneParams p = smallScene();
+  SyntheticObstacle wall;
+  wall.shape = ObstacleShape::kLongWall;
+  wall.x_m = -4.0;
+  wall.z_m = 25.0;
+  wall.width_m = 0.3;
+  wall.depth_m = 30.0;
+  wall.height_m = 2.0;
+  p.obstacles.push_back(wall);
+  const StereoPair pair = renderSyntheticScene(p, 11);
+  const SceneTruth& t = *pair.truth;
+  ASSERT_EQ(t.objects.size(), 1u);
+  EXPECT_EQ(t.objects[0].type, "Misc");
+  EXPECT_NEAR(t.objects[0].dimensions_m[2], 30.0, 1e-9);
+  double d_min = 1e9;
+  double d_max = 0.0;
+  for (int v = 0; v < p.height; ++v) {
+    for (int u = 0; u < p.width; ++u) {
+      if (t.object_id.at<std::uint16_t>(v, u) != 2) continue;
+      const double d = static_cast<double>(t.disparity.at<float>(v, u));
+      d_min = std::min(d_min, d);
+      d_max = std::max(d_max, d);
+    }
+  }
+  const double fB = p.focal_px * p.baseline_m;
+  // Visible from its near end (about 10 m; the image border cuts the nearest part) to its far end (40 m).
+  EXPECT_NEAR(d_min, fB / 40.0, 0.3);
+  EXPECT_GT(d_max, fB / 12.0);
+}
+
+TEST(SyntheticScene, SensorNoiseAndRightGain) {
+  SyntheticSceneParams p = smallScene();
+  const StereoPair clean = renderSyntheticScene(p, 12);
+  p.noise_sigma = 3.0;
+  p.right_gain = 1.1;
+  const StereoPair noisy = renderSyntheticScene(p, 12);
+  cv::Mat diff;
+  cv::subtract(noisy.left, clean.left, diff, cv::noArray(), CV_32F);
+  cv::Scalar mean;
+  cv::Scalar stddev;
+  cv::meanStdDev(diff, mean, stddev);
+  EXPECT_NEAR(mean[0], 0.0, 0.1);
+  EXPECT_NEAR(stddev[0], 3.0, 0.3);
+  // The gain scales the right image: compare on mid-grey pixels (no clipping).
+  double ratio_sum = 0.0;
+  int n = 0;
+  for (int v = 0; v < p.height; v += 2) {
+    for (int u = 0; u < p.width; u += 2) {
+      const double c = clean.right.at<std::uint8_t>(v, u);
+      if (c < 40.0 || c > 200.0) continue;
+      ratio_sum += noisy.right.at<std::uint8_t>(v, u) / c;
+      ++n;
+    }
+  }
+  ASSERT_GT(n, 1000);
+  EXPECT_NEAR(ratio_sum / n, 1.1, 0.02);
+}
+
+TEST(SyntheticScene, WeakGroundTextureHasLowContrast) {
+  SyntheticSceneParams p = smallScene();
+  const StereoPair normal = renderSyntheticScene(p, 13);
+  p.weak_ground_texture = true;
+  const StereoPair weak = renderSyntheticScene(p, 13);
+  auto groundStd = [&](const StereoPair& pair) {
+    cv::Mat mask = pair.truth->object_id == 0;
+    // Near ground only (below the middle of the ground area).
+    mask.rowRange(0, p.height * 3 / 4).setTo(0);
+    cv::Scalar mean;
+    cv::Scalar stddev;
+    cv::meanStdDev(pair.left, mean, stddev, mask);
+    return stddev[0];
+  };
+  EXPECT_GT(groundStd(normal), 20.0);
+  EXPECT_LT(groundStd(weak), 4.0);
+}
+
+TEST(SyntheticScene, ShadowsDarkenOnlyTheGroundBesideAnObject) {
+  SyntheticSceneParams p = smallScene();
+  SyntheticObstacle box;
+  box.shape = ObstacleShape::kBox;
+  box.z_m = 8.0;
+  box.width_m = 1.5;
+  box.depth_m = 1.0;
+  box.height_m = 1.5;
+  p.obstacles.push_back(box);
+  const StereoPair plain = renderSyntheticScene(p, 14);
+  p.shadows = true;
+  const StereoPair shaded = renderSyntheticScene(p, 14);
+  // The sun is to the right: the shadow falls left of the box's right side (x = 0.75 m, front at z = 7.5 m).
+  const double right_side = shaded.rig.cx_px + p.focal_px * 0.75 / 7.5;
+  int darker = 0;
+  for (int v = 0; v < p.height; ++v) {
+    for (int u = 0; u < p.width; ++u) {
+      const int a = plain.left.at<std::uint8_t>(v, u);
+      const int b = shaded.left.at<std::uint8_t>(v, u);
+      if (a == b) continue;
+      EXPECT_LT(b, a) << u << "," << v;
+      // Ground pixels only (silhouette pixels mix in their ground neighbours).
+      const auto& ids = shaded.truth->object_id;
+      const bool silhouette = u == 0 || v == 0 || u + 1 == p.width || v + 1 == p.height ||
+                              ids.at<std::uint16_t>(v, u - 1) != ids.at<std::uint16_t>(v, u) ||
+                              ids.at<std::uint16_t>(v, u + 1) != ids.at<std::uint16_t>(v, u) ||
+                              ids.at<std::uint16_t>(v - 1, u) != ids.at<std::uint16_t>(v, u) ||
+                              ids.at<std::uint16_t>(v + 1, u) != ids.at<std::uint16_t>(v, u);
+      if (!silhouette) {
+        EXPECT_EQ(ids.at<std::uint16_t>(v, u), 0) << u << "," << v;
+      }
+      EXPECT_LT(u, right_side + 2.0);
+      ++darker;
+    }
+  }
+  EXPECT_GT(darker, 300);
+}
+
 TEST(SyntheticScene, SameSeedSameImagesAcrossThreadCounts) {
   const SyntheticSceneParams p = randomSceneParams(42, 414, 125);
   SyntheticSceneRenderer renderer(p);
