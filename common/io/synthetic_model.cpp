@@ -47,26 +47,28 @@ const double kOctaveCos[4] = {0.8660254037844387, 0.17364817766693041, -0.642787
 const double kOctaveSin[4] = {0.5, 0.984807753012208, 0.766044443118978, -0.3420201433256687};
 }  // namespace
 
-double fbm2(double x, double y, double wavelength, int octaves, double gain, double footprint, std::uint32_t seed) {
+double fbm2(double x, double y, double wavelength, int octaves, double gain, double footprint, std::uint32_t seed,
+            double lambda_lo, double lambda_hi) {
   double sum = 0.0;
   double norm = 0.0;
   double amp = 1.0;
   double lambda = wavelength;
+  double inv_lambda = 1.0 / wavelength;
+  const double half_inv_fp = 0.5 / footprint;
   for (int i = 0; i < octaves; ++i) {
-    const double w = bandWeight(lambda, footprint);
+    const double w =
+        (lambda >= lambda_lo && lambda < lambda_hi) ? std::clamp(lambda * half_inv_fp - 1.0, 0.0, 1.0) : 0.0;
     if (w > 0.0) {
-      // Offsets decorrelate the octaves' lattices.
       // Each octave on a rotated lattice: no axis-aligned blockiness.
-      const double c = kOctaveCos[i & 3];
-      const double s = kOctaveSin[i & 3];
+      const double c = kOctaveCos[i & 3] * inv_lambda;
+      const double s = kOctaveSin[i & 3] * inv_lambda;
       sum += amp * w *
-             (valueNoise2((c * x - s * y) / lambda + 17.3 * i, (s * x + c * y) / lambda - 5.1 * i,
-                          seed + static_cast<std::uint32_t>(i)) -
-              0.5);
+             (valueNoise2(c * x - s * y + 17.3 * i, s * x + c * y - 5.1 * i, seed + static_cast<std::uint32_t>(i)) - 0.5);
     }
     norm += amp;
     amp *= gain;
     lambda *= 0.5;
+    inv_lambda *= 2.0;
   }
   return sum / norm;
 }
@@ -76,17 +78,20 @@ double fbm3(const Vec3& p, double wavelength, int octaves, double gain, double f
   double norm = 0.0;
   double amp = 1.0;
   double lambda = wavelength;
+  double inv_lambda = 1.0 / wavelength;
+  const double half_inv_fp = 0.5 / footprint;
   for (int i = 0; i < octaves; ++i) {
-    const double w = bandWeight(lambda, footprint);
+    const double w = std::clamp(lambda * half_inv_fp - 1.0, 0.0, 1.0);
     if (w > 0.0) {
       sum += amp * w *
-             (valueNoise3(p.x() / lambda + 3.7 * i, p.y() / lambda, p.z() / lambda - 9.2 * i,
+             (valueNoise3(p.x() * inv_lambda + 3.7 * i, p.y() * inv_lambda, p.z() * inv_lambda - 9.2 * i,
                           seed + static_cast<std::uint32_t>(i)) -
               0.5);
     }
     norm += amp;
     amp *= gain;
     lambda *= 0.5;
+    inv_lambda *= 2.0;
   }
   return sum / norm;
 }
@@ -587,20 +592,21 @@ double Scene::hillTop(double x) const {
   return D * (0.03 + 0.14 * n);
 }
 
-double Scene::groundAlbedo(double x, double z, double fp) const {
+double Scene::groundTexture(double x, double z, double fp, double lo, double hi) const {
   const std::uint32_t s = ground_seed_;
-  const double large = fbm2(x, z, 9.0, 2, 0.6, fp, s);
-  const double mid = fbm2(x, z, 1.2, 2, 0.7, fp, s + 10);
+  const double large = fbm2(x, z, 9.0, 2, 0.6, fp, s, lo, hi);
+  const double mid = fbm2(x, z, 1.2, 2, 0.7, fp, s + 10, lo, hi);
   // Gravel-like blobs: thresholded noise, faded to its mean when unresolved.
-  const double gw = bandWeight(0.35, fp);
+  constexpr double kGravelWavelength = 0.35;
+  const double gw = (kGravelWavelength >= lo && kGravelWavelength < hi) ? bandWeight(kGravelWavelength, fp) : 0.0;
   double gravel = 0.0;
   if (gw > 0.0) {
-    const double n = valueNoise2((0.94 * x - 0.34 * z) / 0.11 + 0.3, (0.34 * x + 0.94 * z) / 0.11 - 0.7, s + 20);
+    constexpr double kInvBlob = 1.0 / 0.11;
+    const double n = valueNoise2((0.94 * x - 0.34 * z) * kInvBlob + 0.3, (0.34 * x + 0.94 * z) * kInvBlob - 0.7, s + 20);
     gravel = gw * (smoothstep(0.55, 0.75, n) - 0.3) + gw * 0.6 * (0.25 - smoothstep(0.0, 0.22, n));
   }
-  const double fine = fbm2(x, z, 0.04, 2, 0.7, fp, s + 30);
-  const double albedo = 0.5 + ground_contrast_ * (0.55 * large + 0.7 * mid + 0.35 * gravel + 0.45 * fine);
-  return std::clamp(albedo, 0.02, 0.98);
+  const double fine = fbm2(x, z, 0.04, 2, 0.7, fp, s + 30, lo, hi);
+  return 0.55 * large + 0.7 * mid + 0.35 * gravel + 0.45 * fine;
 }
 
 double Scene::backgroundAlbedo(double x, double up, double fp) const {
@@ -652,12 +658,18 @@ double Scene::radiance(const Hit& hit, const Vec3& o, const Vec3& d, double foot
     const double cos_inc = std::max(std::abs(hit.normal.dot(d)), 1e-3);
     const double stretch = 1.0 / cos_inc;
     const int n = std::clamp(static_cast<int>(std::ceil(stretch / 3.0)), 1, 4);
-    double albedo = 0.0;
+    const double fp_along = fp * stretch;
+    double texture = 0.0;
     if (n == 1) {
-      albedo = groundAlbedo(p.x(), p.z(), fp * stretch);
+      texture = groundTexture(p.x(), p.z(), fp_along, 0.0, kInf);
     } else {
+      // Components resolved along the ground too (wavelength >= 4 footprints)
+      // once at the centre; the finer ones averaged over sub-rows.
+      const double split = 4.0 * fp_along;
+      texture = groundTexture(p.x(), p.z(), fp_along, split, kInf);
       int used = 0;
-      const double fp_sub = fp * stretch / n;
+      double detail = 0.0;
+      const double fp_sub = fp_along / n;
       for (int k = 0; k < n; ++k) {
         const double off = (k + 0.5) / n - 0.5;
         const Vec3 ds = (d + off * row_step).normalized();
@@ -665,11 +677,12 @@ double Scene::radiance(const Hit& hit, const Vec3& o, const Vec3& d, double foot
         if (t == kInf) continue;
         const Vec3 q = o + t * ds;
         if (q.z() >= background_distance_) continue;
-        albedo += groundAlbedo(q.x(), q.z(), std::max(fp_sub, t * footprint));
+        detail += groundTexture(q.x(), q.z(), std::max(fp_sub, t * footprint), 0.0, split);
         ++used;
       }
-      albedo = used > 0 ? albedo / used : groundAlbedo(p.x(), p.z(), fp * stretch);
+      if (used > 0) texture += detail / used;
     }
+    const double albedo = std::clamp(0.5 + ground_contrast_ * texture, 0.02, 0.98);
     double light = kAmbient + kDiffuse * std::max(0.0, hit.normal.dot(sun_));
     if (shadows_ && shadowed(p)) light = kAmbient * 0.85;
     return albedo * light;

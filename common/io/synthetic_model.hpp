@@ -71,8 +71,12 @@ inline double bandWeight(double wavelength, double footprint) {
   return std::clamp(wavelength / (2.0 * footprint) - 1.0, 0.0, 1.0);
 }
 
-// Band-limited fractal noise, zero mean, roughly within [-0.5, 0.5].
-double fbm2(double x, double y, double wavelength, int octaves, double gain, double footprint, std::uint32_t seed);
+// Band-limited fractal noise, zero mean, roughly within [-0.5, 0.5]. Only the
+// octaves with a wavelength in [lambda_lo, lambda_hi) are summed (the others
+// still count in the normalisation), so a sum can be split into coarse and
+// fine parts evaluated separately.
+double fbm2(double x, double y, double wavelength, int octaves, double gain, double footprint, std::uint32_t seed,
+            double lambda_lo = 0.0, double lambda_hi = kInf);
 double fbm3(const Vec3& p, double wavelength, int octaves, double gain, double footprint, std::uint32_t seed);
 
 // ---------------------------------------------------------------- terrain
@@ -182,7 +186,8 @@ class Scene {
   Vec3 sunDirection() const { return sun_; }
 
  private:
-  double groundAlbedo(double x, double z, double footprint) const;
+  // Zero-mean ground texture from the components with a wavelength in [lambda_lo, lambda_hi).
+  double groundTexture(double x, double z, double footprint, double lambda_lo, double lambda_hi) const;
   double backgroundAlbedo(double x, double up, double footprint) const;
   double materialAlbedo(const SceneObject& obj, const Material& mat, const Vec3& p, double footprint) const;
   void addPerson(const SyntheticPerson& person);
