@@ -232,6 +232,35 @@ TEST(SyntheticScene, LeftRightConsistencyOnTheGround) {
   EXPECT_GT(contrast / static_cast<double>(errors.size()), 3.0 * median + 3.0);
 }
 
+TEST(SyntheticScene, LeftRightConsistencyOnAPerson) {
+  SyntheticSceneParams p = smallScene();
+  SyntheticPerson person;
+  person.z_m = 6.0;
+  person.walking = true;
+  person.yaw_rad = 0.7;
+  p.people.push_back(person);
+  const StereoPair pair = renderSyntheticScene(p, 15);
+  const SceneTruth& t = *pair.truth;
+  std::vector<double> errors;
+  for (int v = 1; v + 1 < p.height; ++v) {
+    for (int u = 1; u + 1 < p.width; ++u) {
+      // Interior pixels of the person only (silhouettes mix in the background).
+      bool interior = true;
+      for (int dv = -1; dv <= 1; ++dv) {
+        for (int du = -1; du <= 1; ++du) interior = interior && t.object_id.at<std::uint16_t>(v + dv, u + du) == 2;
+      }
+      if (!interior) continue;
+      const double x = u - static_cast<double>(t.disparity.at<float>(v, u));
+      if (x < 0.0 || x > p.width - 2.0) continue;
+      errors.push_back(std::abs(pair.left.at<std::uint8_t>(v, u) - bilinear(pair.right, x, v)));
+    }
+  }
+  ASSERT_GT(errors.size(), 500u);
+  std::sort(errors.begin(), errors.end());
+  EXPECT_LT(errors[errors.size() / 2], 2.0);
+  EXPECT_LT(errors[errors.size() * 9 / 10], 6.0);
+}
+
 TEST(SyntheticScene, TransversalSlopeGroundDisparityFollowsTheTiltedPlane) {
   SyntheticSceneParams p = smallScene();
   p.transversal_slope = 0.05;
