@@ -11,6 +11,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "config/errors.hpp"
+#include "camera/calibration.hpp"
+#include "io/frame_source.hpp"
 #include "io/kitti_format.hpp"
 #include "io/synthetic_scene.hpp"
 
@@ -163,6 +165,38 @@ TEST(KittiFormat, SyntheticExportWritesAKittiLayout) {
     }
   }
   EXPECT_TRUE(fs::exists(dir / "label_2" / "000007.txt"));
+  fs::remove_all(dir);
+}
+
+TEST(KittiFormat, ExportedFramesReadBackThroughTheKittiSource) {
+  const fs::path dir = tempDir("source");
+  std::vector<StereoPair> written;
+  for (std::uint64_t seed = 20; seed < 22; ++seed) {
+    written.push_back(renderSyntheticScene(randomSceneParams(seed, 310, 94), seed));
+    writeKittiFrame(dir.string(), written.back());
+  }
+  writeText(dir / "camera_height_m", "1.65\n");
+  const StereoCalibration calib = loadCalibration((dir / "calib" / "000020.txt").string());
+  EXPECT_NEAR(calib.rig.focal_px, written[0].rig.focal_px, 1e-6);
+  EXPECT_NEAR(calib.rig.cx_px, written[0].rig.cx_px, 1e-6);
+  EXPECT_NEAR(calib.rig.cy_px, written[0].rig.cy_px, 1e-6);
+  EXPECT_NEAR(calib.rig.baseline_m, written[0].rig.baseline_m, 1e-9);
+  auto source = openFrameSource("kitti:" + dir.string());
+  StereoPair pair;
+  for (const StereoPair& expected : written) {
+    ASSERT_TRUE(source->next(pair));
+    EXPECT_EQ(pair.id, expected.id);
+    EXPECT_EQ(cv::norm(pair.left, expected.left, cv::NORM_INF), 0.0);
+    EXPECT_EQ(cv::norm(pair.right, expected.right, cv::NORM_INF), 0.0);
+    EXPECT_NEAR(pair.rig.baseline_m, expected.rig.baseline_m, 1e-9);
+    ASSERT_TRUE(pair.rig.mounting.has_value());
+    EXPECT_NEAR(pair.rig.mounting->height_m, 1.65, 1e-9);
+    ASSERT_EQ(pair.labels.size(), expected.labels.size());
+    for (std::size_t i = 0; i < pair.labels.size(); ++i) {
+      for (std::size_t k = 0; k < 4; ++k) EXPECT_NEAR(pair.labels[i].box[k], expected.labels[i].box[k], 0.006);
+    }
+  }
+  EXPECT_FALSE(source->next(pair));
   fs::remove_all(dir);
 }
 
