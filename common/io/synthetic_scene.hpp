@@ -33,12 +33,21 @@
 //  - horizon_row: first row (from the top) with at least one ground pixel.
 //  - background_offset: mean disparity of the visible hill pixels (f*B/D
 //    when none is visible).
-//  - objects: one KITTI label per object (see SyntheticScene notes in the .cpp):
-//    box = tight box of the visible pixels (id map), truncation = share of the
-//    full projected box outside the image, occlusion from the visible share of
-//    the object's own in-image silhouette (0 <15 %, 1 <50 %, 2 otherwise, 3 = not
-//    visible at all), dimensions, location = bottom centre in the left camera
-//    frame, rotation_y, alpha.
+//  - objects: one KITTI label per object, in the order people then obstacles:
+//    type "Pedestrian" (people), "Car" (vehicles) or "Misc"; box = tight box of
+//    the visible pixels from the id map (inclusive pixel indices); truncation =
+//    share of the full projected box (silhouette of the object alone) outside
+//    the image; occlusion from the visible share of the object's own in-image
+//    silhouette (0 <15 %, 1 <50 %, 2 otherwise, 3 = not visible at all);
+//    dimensions h w l (people: figure height, lateral extent, extent along the
+//    facing direction; obstacles: height, width_m, depth_m); location = bottom
+//    centre (the input x, z on the ground) in the left camera frame;
+//    rotation_y (people: yaw_rad; obstacles: yaw_rad - pi/2, the length axis
+//    being the footprint depth); alpha = rotation_y - atan2(x, z).
+//
+// Sensor model: grey = 255 * radiance * gain + noise, rounded and clipped;
+// gain 1 (left) or right_gain (right); noise approximately Gaussian (sum of four
+// uniforms) with sigma noise_sigma, from a hash of (seed, camera, pixel).
 //  StereoPair::labels = the truth objects with at least one visible pixel.
 #include <cstdint>
 #include <string>
