@@ -13,6 +13,8 @@ const Rectifier& StereoFileLoader::rectifierFor(const std::string& calib_path, c
   const std::string key = calib_path + "\n" + sizeText(image_size);
   const auto it = rectifiers_.find(key);
   if (it != rectifiers_.end()) return *it->second;
+  // KITTI layouts have one calibration file per frame: keep the cache small.
+  if (rectifiers_.size() >= kMaxCachedRectifiers) rectifiers_.clear();
   StereoCalibration calib =
       calib_path.empty() ? nominalCalibration(image_size) : loadCalibration(calib_path, image_size);
   if (!calib.rig.mounting) calib.rig.mounting = fallback_mounting_;

@@ -24,10 +24,12 @@ class StereoFileLoader {
   void load(const std::string& left_path, const std::string& right_path, const std::string& calib_path,
             StereoPair& pair);
 
-  // The rectifier for a calibration at an image size (loaded once, then cached).
+  // The rectifier for a calibration at an image size (loaded once, then cached;
+  // the reference is valid until the next call).
   const Rectifier& rectifierFor(const std::string& calib_path, cv::Size image_size);
 
  private:
+  static constexpr std::size_t kMaxCachedRectifiers = 16;
   std::optional<Mounting> fallback_mounting_;
   std::map<std::string, std::unique_ptr<Rectifier>> rectifiers_;
 };
