@@ -22,6 +22,8 @@ SyntheticSceneParams smallScene() {
   return p;
 }
 
+double synthKPi() { return 3.14159265358979323846; }
+
 double bilinear(const cv::Mat& img, double x, int y) {
   const int x0 = static_cast<int>(std::floor(x));
   const double a = x - x0;
@@ -458,6 +460,49 @@ TEST(SyntheticScene, RandomScenesAreDeterministicAndVaried) {
   }
   EXPECT_GT(people, 60);
   EXPECT_GT(with_obstacles, 15);
+}
+
+TEST(SyntheticScene, RandomScenesHaveConsistentLabels) {
+  int checked_people = 0;
+  for (std::uint64_t seed = 100; seed < 116; ++seed) {
+    const SyntheticSceneParams p = randomSceneParams(seed, 310, 94);
+    const StereoPair pair = renderSyntheticScene(p, seed);
+    const SceneTruth& t = *pair.truth;
+    ASSERT_EQ(t.objects.size(), p.people.size() + p.obstacles.size());
+    ASSERT_EQ(t.object_visible_px.size(), t.objects.size());
+    EXPECT_EQ(pair.rig.mounting->height_m, p.camera_height_m);
+    for (const ObjectLabel& l : pair.labels) {
+      EXPECT_GE(l.box[0], 0.0);
+      EXPECT_GE(l.box[1], 0.0);
+      EXPECT_LE(l.box[2], p.width - 1.0);
+      EXPECT_LE(l.box[3], p.height - 1.0);
+      EXPECT_LE(l.box[0], l.box[2]);
+      EXPECT_LE(l.box[1], l.box[3]);
+      EXPECT_GE(l.truncation, 0.0);
+      EXPECT_LE(l.truncation, 1.0);
+      EXPECT_GE(l.occlusion, 0);
+      EXPECT_LE(l.occlusion, 2);
+      EXPECT_GE(l.alpha, -synthKPi());
+      EXPECT_LE(l.alpha, synthKPi());
+      if (l.type != "Pedestrian" || l.occlusion != 0 || l.truncation > 0.0) continue;
+      // A fully visible person: the box bottom is the ground contact row of its
+      // location (feet may reach up to 0.35 m from the reference point).
+      const double x = l.location_m[0];
+      const double y = l.location_m[1];
+      const double z = l.location_m[2];
+      const double feet_row = pair.rig.cy_px + p.focal_px * y / z;
+      EXPECT_NEAR(l.box[3], feet_row, 1.5 + p.focal_px * std::abs(y) * 0.35 / (z * z) + p.focal_px * 0.05 * 0.35 / z)
+          << "seed " << seed;
+      const double centre_col = pair.rig.cx_px + p.focal_px * x / z;
+      EXPECT_GT(centre_col, l.box[0] - 1.0) << "seed " << seed;
+      EXPECT_LT(centre_col, l.box[2] + 1.0) << "seed " << seed;
+      // Height in pixels agrees with the metric height at that distance.
+      EXPECT_NEAR(l.box[3] - l.box[1] + 1.0, p.focal_px * l.dimensions_m[0] / z, 2.0 + 0.1 * p.focal_px * l.dimensions_m[0] / z)
+          << "seed " << seed;
+      ++checked_people;
+    }
+  }
+  EXPECT_GT(checked_people, 10);
 }
 
 TEST(SyntheticScene, BadParamsNameTheField) {
