@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <unistd.h>
 #include <vector>
 
 #include <httplib.h>
@@ -76,7 +77,8 @@ void CrewDisplayParams::validate() const {
 }
 
 struct CrewDisplayServer::Frame {
-  std::string id;
+  std::string id;    // join key
+  std::string name;  // shown to the crew
   std::uint64_t seq = 0;
   Clock::time_point received;
   cv::Mat image;        // CV_8UC1 or CV_8UC3, owned
@@ -150,12 +152,13 @@ void CrewDisplayServer::housekeepingLoop() {
 }
 
 void CrewDisplayServer::publishFrame(const std::string& frame_id, const cv::Mat& image, const cv::Mat& labels,
-                                     const cv::Mat& correlation) {
+                                     const cv::Mat& correlation, const std::string& name) {
   if (image.empty() || (image.type() != CV_8UC1 && image.type() != CV_8UC3)) {
     throw InputError("crew display: frame '" + frame_id + "' must be a non-empty CV_8UC1 or CV_8UC3 image");
   }
   auto frame = std::make_shared<Frame>();
   frame->id = frame_id;
+  frame->name = name.empty() ? frame_id : name;
   frame->received = Clock::now();
   frame->image = image.clone();
   if (!labels.empty() && labels.size() == image.size() && labels.type() == CV_8UC1) frame->labels = labels.clone();
@@ -277,6 +280,7 @@ std::string CrewDisplayServer::frameEventLocked() const {
   const auto& frame = shown_.back();
   nlohmann::json event = {{"seq", frame->seq},
                           {"frame", frame->id},
+                          {"name", frame->name},
                           {"width", frame->image.cols},
                           {"height", frame->image.rows},
                           {"has_labels", !frame->labels.empty()},
@@ -389,9 +393,11 @@ void CrewDisplayServer::setUpRoutes() {
     nlohmann::json state;
     {
       std::lock_guard lock(mutex_);
+      state["pid"] = static_cast<long>(getpid());
       state["seq"] = seq_;
       if (!shown_.empty()) {
         state["frame"] = shown_.back()->id;
+        state["name"] = shown_.back()->name;
         state["result"] = shown_.back()->has_result ? shown_.back()->result : nlohmann::json();
       }
       state["frames_received"] = stats_.frames_received;
@@ -427,6 +433,7 @@ void CrewDisplayServer::setUpRoutes() {
       }
       res.set_header("X-Frame-Seq", std::to_string(frame->seq));
       res.set_header("X-Frame-Id", frame->id);
+      res.set_header("X-Frame-Name", frame->name);
       // The frame (and so its bytes) stays alive until the response is written.
       res.set_content_provider(bytes.size(), content_type,
                                [frame, &bytes](std::size_t offset, std::size_t length, httplib::DataSink& sink) {

@@ -109,8 +109,11 @@ class CrewDisplayServer {
   // `labels`: optional CV_8UC1 SegmentLabel image of the same size, drawn as
   // the ground/background/obstacle overlay. `correlation`: optional rows x
   // offsets correlation image (CV_32F or CV_8U), shown on request.
+  // `frame_id` joins the frame with its result and layers (unique in the
+  // stream; zero-padded so that text order is stream order); `name`, shown to
+  // the crew, is the source's frame name (default: frame_id).
   void publishFrame(const std::string& frame_id, const cv::Mat& image, const cv::Mat& labels = cv::Mat(),
-                    const cv::Mat& correlation = cv::Mat());
+                    const cv::Mat& correlation = cv::Mat(), const std::string& name = std::string());
   // Overlay layers that arrive after their frame (another topic): attached to
   // the frame while it is still waiting for its result; ignored afterwards.
   void publishLayers(const std::string& frame_id, const cv::Mat& labels, const cv::Mat& correlation);

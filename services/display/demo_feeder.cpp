@@ -1,6 +1,7 @@
 #include "demo_feeder.hpp"
 
 #include <chrono>
+#include <cstdio>
 #include <thread>
 
 #include <opencv2/imgproc.hpp>
@@ -30,6 +31,7 @@ nlohmann::json truthAsResult(const StereoPair& pair) {
                       {"track_id", static_cast<int>(i) + 1}});
   }
   return {{"frame", pair.id},
+          {"name", pair.id},
           {"width", pair.left.cols},
           {"height", pair.left.rows},
           {"humans", humans},
@@ -117,8 +119,13 @@ std::uint64_t DemoFeeder::run(std::uint64_t frames, const std::function<bool()>&
       continue;
     }
     restarted_without_frame = false;
-    server_.publishFrame(pair.id, pair.left, truthAsLabels(pair));
-    server_.publishResult(truthAsResult(pair));
+    // Join key: a counter (a replayed frame keeps its name but is a new frame).
+    char key[32];
+    std::snprintf(key, sizeof key, "%012llu", static_cast<unsigned long long>(published));
+    server_.publishFrame(key, pair.left, truthAsLabels(pair), cv::Mat(), pair.id);
+    nlohmann::json result = truthAsResult(pair);
+    result["frame"] = key;
+    server_.publishResult(result);
     ++published;
     ++period_frames;
     period_ms += std::chrono::duration<double, std::milli>(Clock::now() - start).count();

@@ -16,7 +16,7 @@ constexpr dds_attach_t kSegmentationToken = 2;
 constexpr dds_attach_t kDetectionsToken = 3;
 constexpr dds_attach_t kMetricsToken = 4;
 
-nlohmann::json detectionsAsResult(const std::string& name, const dds::DetectionsData& data) {
+nlohmann::json detectionsAsResult(const dds::DetectionsData& data) {
   nlohmann::json humans = nlohmann::json::array();
   for (const HumanDetection& d : data.detections) {
     humans.push_back({{"box", {d.box.x, d.box.y, d.box.x + d.box.width, d.box.y + d.box.height}},
@@ -31,7 +31,8 @@ nlohmann::json detectionsAsResult(const std::string& name, const dds::Detections
   for (const auto& [stage, ms] : data.timing_ms) timing[stage] = ms;
   const double latency_ms =
       static_cast<double>(dds::realtimeNowNs() - data.info.capture_time_ns) / 1e6;
-  return {{"frame", name},
+  return {{"frame", displayFrameKey(data.info)},
+          {"name", displayFrameName(data.info)},
           {"width", data.width},
           {"height", data.height},
           {"humans", humans},
@@ -73,6 +74,12 @@ DisplayConfig loadDisplayConfig(const std::string& path) {
   }
   config.params.validate();
   return config;
+}
+
+std::string displayFrameKey(const dds::FrameInfo& info) {
+  char key[32];
+  std::snprintf(key, sizeof key, "%012llu", static_cast<unsigned long long>(info.frame_id));
+  return key;
 }
 
 std::string displayFrameName(const dds::FrameInfo& info) {
@@ -151,8 +158,8 @@ void DisplayService::takeFrames() {
         continue;
       }
       runtime_.stats().received();
-      const std::string name = displayFrameName(frame_data_.info);
-      server_.publishFrame(name, frame_data_.left);
+      server_.publishFrame(displayFrameKey(frame_data_.info), frame_data_.left, cv::Mat(), cv::Mat(),
+                           displayFrameName(frame_data_.info));
       runtime_.stats().published(static_cast<double>(dds::realtimeNowNs() - frame_data_.info.capture_time_ns) / 1e6);
       ++frames_handed_;
       if (frame_data_.info.end_of_stream && !end_of_stream_) {
@@ -178,7 +185,7 @@ void DisplayService::takeSegmentations() {
       }
       if (!segmentation_data_.info.payload_valid) continue;
       ++segmentations_;
-      server_.publishLayers(displayFrameName(segmentation_data_.info), segmentation_data_.result.labels, cv::Mat());
+      server_.publishLayers(displayFrameKey(segmentation_data_.info), segmentation_data_.result.labels, cv::Mat());
     }
   }
 }
@@ -198,7 +205,7 @@ void DisplayService::takeDetections() {
       }
       if (!detections_data_.info.payload_valid) continue;
       ++detections_;
-      server_.publishResult(detectionsAsResult(displayFrameName(detections_data_.info), detections_data_));
+      server_.publishResult(detectionsAsResult(detections_data_));
     }
   }
 }

@@ -46,8 +46,11 @@ struct DisplayConfig {
 };
 DisplayConfig loadDisplayConfig(const std::string& path);
 
-// Frame name used to join the topics and shown to the crew: the source's
-// name ("000042"), or the zero-padded frame id when the source has none.
+// Key joining a frame across the topics: the zero-padded frame id (unique in
+// the stream, even when a preloaded source repeats its frame names).
+std::string displayFrameKey(const dds::FrameInfo& info);
+// Name shown to the crew: the source's frame name ("000042"), or the
+// zero-padded frame id when the source has none.
 std::string displayFrameName(const dds::FrameInfo& info);
 
 class DisplayService {

@@ -90,15 +90,17 @@ function show(ev, image, overlay, correlation) {
   renderBoxes(humans, ev.width, ev.height);
   renderPeople(humans);
 
-  stage.dataset.frameId = ev.frame;
+  stage.dataset.frameId = ev.name ?? ev.frame;
+  stage.dataset.frameKey = ev.frame;
   stage.dataset.frameSeq = String(ev.seq);
   stage.dataset.personCount = String(humans.length);
   stage.dataset.hasResult = ev.result ? 'true' : 'false';
-  $('frame-id').textContent = ev.frame;
+  $('frame-id').textContent = ev.name ?? ev.frame;
 
   const now = performance.now();
   state.lastShownAt = now;
   state.shown += 1;
+  document.body.dataset.shown = String(state.shown);
   state.shownTimes.push(now);
   while (state.shownTimes.length && now - state.shownTimes[0] > 2000) state.shownTimes.shift();
   checkStale();
