@@ -202,11 +202,41 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& r
   scanner_.compute(grey, region_weights_, search, sym_scratch_);
 
   std::vector<HumanDetection> local;
+  extended_.clear();
   const auto& fp = params_.filters;
   for (const auto& c : sym_scratch_) {
     if (static_cast<double>(c.score) < cp.min_symmetry) continue;
     if (static_cast<double>(c.edge_density) < fp.min_edge_density) continue;   // too few edges
     if (static_cast<double>(c.grey_stddev) < fp.min_grey_stddev) continue;      // uniform texture
+    // The symmetric core is often the torso only: grow the sides to the
+    // object's edge extent (arms, a walking stance), within the width limit.
+    const int max_half = search.max_half_width_px;
+    const int bottom_rel = c.box.y + c.box.height - 1;
+    const double min_col_weight = cp.extent_min_edge_share * c.box.height;
+    auto columnWeight = [&](int x) {
+      double sum = 0.0;
+      for (int y = c.box.y; y <= bottom_rel; ++y) sum += static_cast<double>(region_weights_.at<float>(y, x));
+      return sum;
+    };
+    int x_left = c.box.x;
+    int x_right = c.box.x + c.box.width - 1;
+    for (int x = c.box.x - 1, gap = 0; x >= std::max(0, c.axis_col - max_half) && gap <= cp.extent_gap_px; --x) {
+      if (columnWeight(x) >= min_col_weight) {
+        x_left = x;
+        gap = 0;
+      } else {
+        ++gap;
+      }
+    }
+    for (int x = x_right + 1, gap = 0; x <= std::min(roi.width - 1, c.axis_col + max_half) && gap <= cp.extent_gap_px; ++x) {
+      if (columnWeight(x) >= min_col_weight) {
+        x_right = x;
+        gap = 0;
+      } else {
+        ++gap;
+      }
+    }
+    // Both boxes go on: the shape validation tells which one frames a person.
     HumanDetection h;
     h.box = cv::Rect2f(static_cast<float>(c.box.x + roi.x), static_cast<float>(c.box.y + roi.y),
                        static_cast<float>(c.box.width), static_cast<float>(c.box.height));
@@ -215,6 +245,11 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& r
     h.offset_px = static_cast<float>(d);
     h.cluster_label = cluster.label;
     local.push_back(h);
+    if (x_left != c.box.x || x_right != c.box.x + c.box.width - 1) {
+      h.box.x = static_cast<float>(x_left + roi.x);
+      h.box.width = static_cast<float>(x_right - x_left + 1);
+      extended_.push_back(h);
+    }
   }
   suppressDuplicates(local, fp.nms_iou, fp.nms_containment);
   int kept = 0;
@@ -224,6 +259,16 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& r
     if (foreignShare(segmentation, pixels, cluster.label) > fp.max_foreign_share) continue;  // straddles clusters
     out.push_back(h);
     ++kept;
+    // The widened box of a kept candidate, when there is one.
+    for (const auto& e : extended_) {
+      if (e.box.y == h.box.y && e.box.height == h.box.height && e.box.x <= h.box.x &&
+          e.box.x + e.box.width >= h.box.x + h.box.width && e.symmetry == h.symmetry) {
+        if (foreignShare(segmentation, toPixels(e.box, left.size()), cluster.label) <= fp.max_foreign_share) {
+          out.push_back(e);
+        }
+        break;
+      }
+    }
   }
 }
 
@@ -378,7 +423,7 @@ void HumanLocalizer::compute(const cv::Mat& left, const cv::Mat& right, const St
   }
   candidates_.clear();
   for (const auto& cluster : segmentation.obstacles) candidatesInCluster(left, rig, segmentation, cluster, candidates_);
-  suppressDuplicates(candidates_, params_.filters.nms_iou, params_.filters.nms_containment);
+  // Duplicates are suppressed after scoring, so that the better-framed of two overlapping boxes wins.
 
   const cv::Rect image(0, 0, left.cols, left.rows);
   cv::Mat box_mask, box_weights;

@@ -41,6 +41,8 @@ struct CandidateParams {
   int min_height_px = 16;         // smaller boxes cannot be validated
   int max_per_cluster = 4;        // candidates kept per cluster after suppression
   double min_symmetry = 0.12;     // symmetry score below which a candidate is dropped
+  double extent_min_edge_share = 0.15;  // a column belongs to the object when its edge weight >= this x box height
+  int extent_gap_px = 2;          // edge-free columns tolerated when growing a box to the object's extent
 
   template <class V>
   void visit(V& v) {
@@ -54,6 +56,9 @@ struct CandidateParams {
     v.field("min_height_px", min_height_px, 4, 1000, "pixels", "smallest box height kept");
     v.field("max_per_cluster", max_per_cluster, 1, 32, "", "candidates kept per cluster");
     v.field("min_symmetry", min_symmetry, 0.0, 1.0, "", "smallest symmetry score kept");
+    v.field("extent_min_edge_share", extent_min_edge_share, 0.0, 1.0, "",
+            "column edge weight (share of the box height) that extends a box sideways");
+    v.field("extent_gap_px", extent_gap_px, 0, 50, "pixels", "edge-free columns tolerated when extending a box");
   }
 };
 
@@ -189,6 +194,7 @@ class HumanLocalizer {
   cv::HOGDescriptor hog_;
   std::vector<SymmetryCandidate> sym_scratch_;
   std::vector<HumanDetection> candidates_;
+  std::vector<HumanDetection> extended_;
   cv::Mat region_mask_, region_weights_, hog_canvas_;
   std::vector<cv::Point> hog_found_;
   std::vector<double> hog_weights_;
