@@ -30,6 +30,7 @@ struct RunOptions {
   std::string config_dir;
   std::string summary_json;
   bool no_table = false;
+  int preload = 0;
 };
 
 nlohmann::json summaryJson(const PipelineSummary& s) {
@@ -68,6 +69,7 @@ int runCommand(const RunOptions& o) {
   options.dds_config = o.dds_config;
   options.config_dir = o.config_dir;
   options.table = !o.no_table;
+  options.preload = o.preload;
   const PipelineSummary summary = runPipeline(options, signals);
   std::cout << formatSummary(summary) << std::flush;
   if (!o.summary_json.empty()) {
@@ -96,6 +98,8 @@ void addRunCommand(CLI::App& app) {
   cmd->add_option("--dds-config", options->dds_config, "Cyclone DDS XML (default: config/dds/loopback.xml)");
   cmd->add_option("--config-dir", options->config_dir, "folder of the per-service YAML files (default: config/)");
   cmd->add_option("--summary-json", options->summary_json, "write the frame accounting as JSON");
+  cmd->add_option("--preload", options->preload, "acquisition reads N frames once and repeats them")
+      ->check(CLI::Range(0, 10000));
   cmd->add_flag("--no-table", options->no_table, "no live table (logs and the summary only)");
   cmd->callback([options] {
     const int status = runCommand(*options);

@@ -1,0 +1,217 @@
+// The whole pipeline as separate processes on loopback DDS (stereoguard run):
+// the detections received for every frame equal `stereoguard detect` on the
+// same frames, the frame accounting adds up, and a stage killed with SIGKILL
+// is restarted by the supervisor with frames flowing again within 2 s.
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "dds/conversions.hpp"
+#include "dds/dds.hpp"
+#include "dds/topics.hpp"
+#include "io/result_json.hpp"
+#include "process_util.hpp"
+
+namespace sg {
+namespace {
+
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+
+int framesUnderTest() {
+  const char* env = std::getenv("SG_INTEGRATION_FRAMES");
+  return env != nullptr ? std::atoi(env) : 10;
+}
+
+// Everything the test hears on one domain.
+class Observer {
+ public:
+  explicit Observer(int domain)
+      : participant_(static_cast<dds_domainid_t>(domain)),
+        detections_topic_(participant_, dds::kHumanDetectionsTopic),
+        segmentation_topic_(participant_, dds::kSegmentationTopic),
+        detections_(participant_, detections_topic_, transport_.results),
+        segmentation_(participant_, segmentation_topic_, transport_.results) {}
+
+  void poll() {
+    for (;;) {
+      auto samples = detections_.take();
+      if (samples.size() == 0) break;
+      for (std::size_t i = 0; i < samples.size(); ++i) {
+        if (!samples.valid(i) || !samples[i].header.payload_valid) continue;
+        dds::DetectionsData d;
+        dds::readDetections(samples[i], d);
+        arrival[d.info.frame_id] = Clock::now();
+        detections[d.info.frame_id] = std::move(d);
+      }
+    }
+    for (;;) {
+      auto samples = segmentation_.take();
+      if (samples.size() == 0) break;
+      for (std::size_t i = 0; i < samples.size(); ++i) {
+        if (!samples.valid(i) || !samples[i].header.payload_valid) continue;
+        dds::SegmentationData s;
+        dds::readSegmentation(samples[i], s);
+        segmentations[s.info.frame_id] = std::move(s);
+      }
+    }
+  }
+
+  std::map<std::uint64_t, dds::DetectionsData> detections;
+  std::map<std::uint64_t, Clock::time_point> arrival;
+  std::map<std::uint64_t, dds::SegmentationData> segmentations;
+
+ private:
+  dds::TransportParams transport_;
+  dds::Participant participant_;
+  dds::Topic<sg_idl_HumanDetections> detections_topic_;
+  dds::Topic<sg_idl_Segmentation> segmentation_topic_;
+  dds::Reader<sg_idl_HumanDetections> detections_;
+  dds::Reader<sg_idl_Segmentation> segmentation_;
+};
+
+std::map<std::string, std::string> childEnv(int domain) {
+  return {{"CYCLONEDDS_URI", test::loopbackUri()}, {"SG_DDS_DOMAIN", std::to_string(domain)}};
+}
+
+bool near(double a, double b, double tol) { return std::abs(a - b) <= tol * std::max(1.0, std::abs(b)); }
+
+TEST(Pipeline, DetectionsEqualOfflineDetectAndEveryFrameIsAccountedFor) {
+  test::useLoopbackDds();
+  constexpr int kDomain = 182;
+  const int frames = framesUnderTest();
+  const std::string dir = SG_TEST_LOG_DIR;
+  const std::string run_log = dir + "/pipeline_run.log";
+  const std::string summary_path = dir + "/pipeline_summary.json";
+  std::remove(summary_path.c_str());
+  Observer observer(kDomain);
+
+  test::ChildProcess run({SG_STEREOGUARD_EXE, "run", "--no-display", "--no-table", "--source", "synthetic:11",
+                          "--frames", std::to_string(frames), "--rate", "2", "--domain", std::to_string(kDomain),
+                          "--summary-json", summary_path},
+                         childEnv(kDomain), run_log);
+  std::optional<int> status;
+  const auto deadline = Clock::now() + 300s;
+  while (!(status = run.waitFor(100ms)) && Clock::now() < deadline) observer.poll();
+  ASSERT_TRUE(status.has_value()) << "stereoguard run did not end\n" << test::tail(run_log);
+  observer.poll();
+  ASSERT_EQ(*status, 0) << test::tail(run_log);
+
+  // Frame accounting: every frame delivered or dropped with a reason.
+  const nlohmann::json summary = nlohmann::json::parse(test::readFile(summary_path));
+  EXPECT_EQ(summary["frames_in"].get<int>(), frames) << summary.dump(2);
+  EXPECT_EQ(summary["unaccounted"].get<int>(), 0) << summary.dump(2);
+  EXPECT_EQ(summary["delivered"].get<std::uint64_t>() + summary["dropped"].get<std::uint64_t>(),
+            static_cast<std::uint64_t>(frames));
+  EXPECT_EQ(observer.detections.size(), summary["delivered"].get<std::size_t>());
+  EXPECT_GE(observer.detections.size(), static_cast<std::size_t>(frames) / 2) << "most frames should get through at 2 Hz";
+
+  // The same frames in one process.
+  const std::string jsonl = dir + "/pipeline_detect.jsonl";
+  test::ChildProcess detect({SG_STEREOGUARD_EXE, "detect", "--source", "synthetic:11", "--frames",
+                             std::to_string(frames), "--out", jsonl},
+                            childEnv(kDomain), dir + "/pipeline_detect.log");
+  const auto detect_status = detect.waitFor(300s);
+  ASSERT_TRUE(detect_status.has_value());
+  ASSERT_EQ(*detect_status, 0) << test::tail(dir + "/pipeline_detect.log");
+  const std::vector<FrameRecord> records = readFrameRecords(jsonl);
+  ASSERT_EQ(records.size(), static_cast<std::size_t>(frames));
+
+  // Tracks depend on every earlier frame: compare track ids only while no frame was dropped.
+  const bool all_delivered = observer.detections.size() == static_cast<std::size_t>(frames);
+  std::size_t humans_compared = 0;
+  for (const auto& [id, got] : observer.detections) {
+    ASSERT_LT(id, records.size());
+    const FrameRecord& want = records[id];
+    EXPECT_EQ(got.info.source, want.frame);
+    ASSERT_EQ(got.detections.size(), want.humans.size()) << "frame " << id;
+    for (std::size_t k = 0; k < want.humans.size(); ++k) {
+      const HumanDetection& a = got.detections[k];
+      const HumanDetection& b = want.humans[k];
+      SCOPED_TRACE("frame " + std::to_string(id) + " human " + std::to_string(k));
+      EXPECT_TRUE(near(a.box.x, b.box.x, 1e-3) && near(a.box.y, b.box.y, 1e-3) &&
+                  near(a.box.width, b.box.width, 1e-3) && near(a.box.height, b.box.height, 1e-3));
+      EXPECT_TRUE(near(a.score, b.score, 1e-3));
+      EXPECT_TRUE(near(a.distance_m, b.distance_m, 1e-3));
+      EXPECT_TRUE(near(a.position_m.x(), b.position_m.x(), 1e-3) && near(a.position_m.z(), b.position_m.z(), 1e-3));
+      if (all_delivered) EXPECT_EQ(a.track_id, b.track_id);
+      ++humans_compared;
+    }
+    // The segmentation that went over DDS is the offline one.
+    const auto seg = observer.segmentations.find(id);
+    if (seg != observer.segmentations.end()) {
+      ASSERT_EQ(seg->second.result.obstacles.size(), want.obstacles.size()) << "frame " << id;
+      for (std::size_t k = 0; k < want.obstacles.size(); ++k) {
+        EXPECT_EQ(seg->second.result.obstacles[k].offset_px, want.obstacles[k].offset_px) << "frame " << id;
+        EXPECT_EQ(seg->second.result.obstacles[k].box, want.obstacles[k].box) << "frame " << id;
+      }
+    }
+  }
+  RecordProperty("humans_compared", static_cast<int>(humans_compared));
+}
+
+TEST(Pipeline, KilledStageIsRestartedAndFramesFlowAgainWithinTwoSeconds) {
+  test::useLoopbackDds();
+  constexpr int kDomain = 183;
+  const std::string dir = SG_TEST_LOG_DIR;
+  const std::string run_log = dir + "/pipeline_restart.log";
+  const std::string summary_path = dir + "/pipeline_restart.json";
+  Observer observer(kDomain);
+  // Three frames read once and repeated at 5 Hz: the source costs nothing while the stage is down.
+  test::ChildProcess run({SG_STEREOGUARD_EXE, "run", "--no-display", "--no-table", "--source", "synthetic:3",
+                          "--preload", "3", "--rate", "5", "--domain", std::to_string(kDomain), "--summary-json",
+                          summary_path},
+                         childEnv(kDomain), run_log);
+  auto waitFrames = [&](std::size_t n, std::chrono::seconds timeout) {
+    const auto deadline = Clock::now() + timeout;
+    while (observer.detections.size() < n && Clock::now() < deadline && run.running()) {
+      observer.poll();
+      std::this_thread::sleep_for(20ms);
+      run.waitFor(0ms);
+    }
+    return observer.detections.size() >= n;
+  };
+  ASSERT_TRUE(waitFrames(3, 120s)) << test::tail(run_log);
+
+  const pid_t victim = test::childMatching(run.pid(), "stereoguard-segmentation");
+  ASSERT_GT(victim, 0) << "no segmentation process under the launcher";
+  const std::uint64_t last_before = observer.detections.rbegin()->first;
+  ASSERT_EQ(kill(victim, SIGKILL), 0);
+  const auto killed_at = Clock::now();
+
+  // The next frame after the kill.
+  std::optional<Clock::time_point> resumed;
+  while (!resumed && Clock::now() - killed_at < 20s) {
+    observer.poll();
+    for (auto it = observer.arrival.upper_bound(last_before); it != observer.arrival.end(); ++it) {
+      if (it->second > killed_at + 50ms) {  // not one already in flight before the kill
+        resumed = it->second;
+        break;
+      }
+    }
+    std::this_thread::sleep_for(10ms);
+  }
+  ASSERT_TRUE(resumed.has_value()) << "no frame after the kill\n" << test::tail(run_log);
+  const double gap_s = std::chrono::duration<double>(*resumed - killed_at).count();
+  RecordProperty("resumed_after_ms", static_cast<int>(gap_s * 1000));
+  EXPECT_LT(gap_s, 2.0) << test::tail(run_log);
+  const pid_t replacement = test::childMatching(run.pid(), "stereoguard-segmentation");
+  EXPECT_GT(replacement, 0);
+  EXPECT_NE(replacement, victim);
+
+  run.signal(SIGTERM);  // forwarded to every stage; the launcher ends cleanly
+  const auto status = run.waitFor(30s);
+  ASSERT_TRUE(status.has_value()) << test::tail(run_log);
+  EXPECT_EQ(*status, 0) << test::tail(run_log);
+  const nlohmann::json summary = nlohmann::json::parse(test::readFile(summary_path));
+  EXPECT_EQ(summary["restarts"]["segmentation"].get<int>(), 1) << summary.dump(2);
+  EXPECT_TRUE(summary["interrupted"].get<bool>());
+}
+
+}  // namespace
+}  // namespace sg
