@@ -91,8 +91,9 @@ SyntheticSceneParams randomSceneParams(std::uint64_t seed, int width, int height
   }
 
   // Non-human obstacles, and sometimes a long wall at the side.
-  const int n_obstacles = std::uniform_int_distribution<int>(0, 3)(rng);
+  // 0-3 non-human obstacles in all, the long wall counted.
   const bool long_wall = chance(0.3);
+  const int n_obstacles = std::uniform_int_distribution<int>(0, long_wall ? 2 : 3)(rng);
   for (int i = 0; i < n_obstacles + (long_wall ? 1 : 0); ++i) {
     for (int attempt = 0; attempt < 60; ++attempt) {
       SyntheticObstacle ob;

@@ -443,6 +443,8 @@ TEST(SyntheticScene, SameSeedSameImagesAcrossThreadCounts) {
 TEST(SyntheticScene, RandomScenesAreDeterministicAndVaried) {
   int people = 0;
   int with_obstacles = 0;
+  int long_walls = 0;
+  int terrains[4] = {0, 0, 0, 0};
   for (std::uint64_t seed = 0; seed < 40; ++seed) {
     const SyntheticSceneParams a = randomSceneParams(seed);
     const SyntheticSceneParams b = randomSceneParams(seed);
@@ -453,6 +455,13 @@ TEST(SyntheticScene, RandomScenesAreDeterministicAndVaried) {
     EXPECT_LE(a.people.size(), 4u);
     people += static_cast<int>(a.people.size());
     with_obstacles += a.obstacles.empty() ? 0 : 1;
+    EXPECT_LE(a.obstacles.size(), 3u);
+    for (const auto& o : a.obstacles) long_walls += o.shape == ObstacleShape::kLongWall ? 1 : 0;
+    terrains[static_cast<int>(a.terrain)] += 1;
+    EXPECT_GE(a.noise_sigma, 1.0);
+    EXPECT_LE(a.noise_sigma, 3.0);
+    EXPECT_GE(a.right_gain, 0.9);
+    EXPECT_LE(a.right_gain, 1.1);
     for (const auto& person : a.people) {
       EXPECT_GE(person.z_m, 5.0);
       EXPECT_LE(person.z_m, 35.0);
@@ -460,6 +469,8 @@ TEST(SyntheticScene, RandomScenesAreDeterministicAndVaried) {
   }
   EXPECT_GT(people, 60);
   EXPECT_GT(with_obstacles, 15);
+  EXPECT_GT(long_walls, 3);
+  for (int n : terrains) EXPECT_GT(n, 3);
 }
 
 TEST(SyntheticScene, RandomScenesHaveConsistentLabels) {
