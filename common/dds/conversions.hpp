@@ -76,6 +76,8 @@ class SegmentationEncoder {
  public:
   // Borrows from `data` and from this encoder's scratch (valid until the next fill()).
   void fill(const SegmentationData& data, sg_idl_Segmentation& out);
+  // Runs of the label image in the last fill() (5 bytes each on the wire).
+  std::size_t labelRuns() const { return run_label_.size(); }
 
  private:
   std::vector<float> vertex_offset_;

@@ -15,6 +15,9 @@ void SegmentationService::compute(const sg_idl_FeatureFrame& in, const dds::Fram
   output_.info = info;
   output_.rig = input_.rig;
   encoder_.fill(output_, out);
+  runtime_.log().debug("frame {}: {} obstacles, ground {}, {} label runs ({} bytes)", info.frame_id,
+                       output_.result.obstacles.size(), toString(output_.result.ground.source), encoder_.labelRuns(),
+                       encoder_.labelRuns() * 5);
 }
 
 void SegmentationService::run() {
