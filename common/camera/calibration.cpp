@@ -607,10 +607,11 @@ void setImageSize(StereoCalibration& calib, cv::Size image_size, const std::stri
 StereoCalibration nominalCalibration(cv::Size image_size) {
   StereoCalibration calib;
   calib.source = "nominal";
-  calib.rig.focal_px = 0.581 * image_size.width;
-  calib.rig.cx_px = 0.5 * (image_size.width - 1);
-  calib.rig.cy_px = 0.5 * (image_size.height - 1);
+  calib.rig.focal_px = 721.5;
+  calib.rig.cx_px = image_size.width / 2.0;
+  calib.rig.cy_px = image_size.height / 2.0;
   calib.rig.baseline_m = 0.54;
+  calib.rig.mounting = Mounting{1.65, 0.0};
   calib.image_size = image_size;
   calib.rig.width = image_size.width;
   calib.rig.height = image_size.height;

@@ -57,9 +57,11 @@ StereoCalibration loadCalibration(const std::string& path, cv::Size image_size =
 // the image in messages.
 void setImageSize(StereoCalibration& calib, cv::Size image_size, const std::string& what);
 
-// A stand-in rig for image pairs without calibration: KITTI-like field of view
-// (focal 0.58 x width), principal point at the centre, baseline 0.54 m, no
-// mounting prior. Offsets and features are right; metric distances are not.
+// A stand-in rig for image pairs without calibration, the same as the default
+// rig of `stereoguard segment`: the KITTI car's focal length 721.5 px and
+// baseline 0.54 m, principal point at the image centre, camera 1.65 m above
+// the ground, no pitch. Offsets and features are right; metric distances are
+// only as right as the guess.
 StereoCalibration nominalCalibration(cv::Size image_size);
 
 // Reads a one-number file such as `camera_height_m`. Throws InputError naming

@@ -17,7 +17,8 @@ const Rectifier& StereoFileLoader::rectifierFor(const std::string& calib_path, c
   if (rectifiers_.size() >= kMaxCachedRectifiers) rectifiers_.clear();
   StereoCalibration calib =
       calib_path.empty() ? nominalCalibration(image_size) : loadCalibration(calib_path, image_size);
-  if (!calib.rig.mounting) calib.rig.mounting = fallback_mounting_;
+  // A mounting file beats the nominal rig's guess, never a calibration's own prior.
+  if (fallback_mounting_ && (calib_path.empty() || !calib.rig.mounting)) calib.rig.mounting = fallback_mounting_;
   setImageSize(calib, image_size, calib_path.empty() ? std::string("nominal rig") : calib_path);
   auto rectifier = std::make_unique<Rectifier>(std::move(calib));
   return *rectifiers_.emplace(key, std::move(rectifier)).first->second;

@@ -388,9 +388,14 @@ TEST(RosCalibration, SingleCameraInfoExplainsThePairSyntax) {
   expectInputError([&] { loadCalibration(left); }, {"left.yaml", "left.yaml,right.yaml"});
 }
 
-TEST(NominalCalibration, KittiLikeFieldOfView) {
-  const StereoCalibration calib = nominalCalibration({1242, 375});
-  EXPECT_NEAR(calib.rig.focal_px, 721.5, 1.0);
+TEST(NominalCalibration, KittiCarRigCentredOnTheImage) {
+  const StereoCalibration calib = nominalCalibration({1482, 994});
+  EXPECT_DOUBLE_EQ(calib.rig.focal_px, 721.5);
+  EXPECT_DOUBLE_EQ(calib.rig.cx_px, 741.0);
+  EXPECT_DOUBLE_EQ(calib.rig.cy_px, 497.0);
+  ASSERT_TRUE(calib.rig.mounting.has_value());
+  EXPECT_DOUBLE_EQ(calib.rig.mounting->height_m, 1.65);
+  EXPECT_FALSE(calib.needs_rectification);
   EXPECT_NO_THROW(calib.rig.validate());
 }
 
