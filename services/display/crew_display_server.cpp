@@ -167,6 +167,8 @@ void CrewDisplayServer::publishFrame(const std::string& frame_id, const cv::Mat&
   std::lock_guard lock(mutex_);
   ++stats_.frames_received;
   last_frame_time_ = frame->received;
+  arrivals_.emplace_back(frame_id, frame->received);
+  while (arrivals_.size() > kArrivalsKept) arrivals_.pop_front();
   if (auto it = early_results_.find(frame_id); it != early_results_.end()) {
     frame->result = std::move(it->second);
     frame->has_result = true;
@@ -207,17 +209,26 @@ void CrewDisplayServer::publishResult(const nlohmann::json& result) {
     if (frame->id == frame_id) {
       frame->result = result;
       frame->has_result = true;
-      promoteReadyLocked(Clock::now());
+      const auto now = Clock::now();
+      // Decaying maximum of the detection delay: a slow pipeline (real
+      // images) makes frames wait longer for their boxes instead of being
+      // shown without them.
+      const double delay = millisecondsBetween(frame->received, now);
+      stats_.result_delay_ms = std::max(delay, 0.98 * stats_.result_delay_ms);
+      promoteReadyLocked(now);
       return;
     }
   }
-  // The result can overtake its frame (different topics): keep a few.
-  const bool already_shown =
-      std::any_of(shown_.begin(), shown_.end(), [&](const auto& f) { return f->id == frame_id; });
-  if (already_shown) {
+  // Too late for its frame (already shown or dropped): learn the delay, so
+  // that the next frames wait long enough for theirs.
+  const auto arrival = std::find_if(arrivals_.begin(), arrivals_.end(), [&](const auto& a) { return a.first == frame_id; });
+  if (arrival != arrivals_.end()) {
+    const double delay = millisecondsBetween(arrival->second, Clock::now());
+    stats_.result_delay_ms = std::max(delay, 0.98 * stats_.result_delay_ms);
     ++stats_.results_unmatched;
     return;
   }
+  // The result can overtake its frame (different topics): keep a few.
   early_results_[frame_id] = result;
   while (early_results_.size() > static_cast<std::size_t>(params_.pending_frames)) {
     early_results_.erase(early_results_.begin());  // ids are zero-padded: the smallest is the oldest
@@ -242,7 +253,9 @@ CrewDisplayStats CrewDisplayServer::stats() const {
 }
 
 void CrewDisplayServer::promoteReadyLocked(Clock::time_point now) {
-  const auto timeout = std::chrono::milliseconds(params_.join_timeout_ms);
+  const double wait_ms = std::clamp(1.25 * stats_.result_delay_ms, static_cast<double>(params_.join_timeout_ms),
+                                    static_cast<double>(std::max(params_.join_timeout_ms, params_.max_join_wait_ms)));
+  const auto timeout = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::milli>(wait_ms));
   std::ptrdiff_t ready = -1;
   for (std::ptrdiff_t i = static_cast<std::ptrdiff_t>(pending_.size()) - 1; i >= 0; --i) {
     const auto& frame = pending_[static_cast<std::size_t>(i)];
@@ -308,6 +321,7 @@ std::string CrewDisplayServer::statusEventLocked(Clock::time_point now) const {
         {"dropped_superseded", stats_.dropped_superseded},
         {"dropped_pending_full", stats_.dropped_pending_full},
         {"results_unmatched", stats_.results_unmatched},
+        {"result_delay_ms", stats_.result_delay_ms},
         {"jpeg_encode_ms_avg", stats_.jpeg_encode_ms_avg},
         {"clients", stats_.event_clients}}}};
   return sseEvent("status", status.dump());

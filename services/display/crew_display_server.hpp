@@ -26,6 +26,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
@@ -42,8 +43,9 @@ struct CrewDisplayParams {
   int port = 8080;                 // TCP port; 0 = any free port (see CrewDisplayServer::port())
   int jpeg_quality = 80;           // JPEG quality of the live image (percent)
   int max_image_width_px = 1280;   // wider frames are downscaled before encoding (0 = never)
-  int join_timeout_ms = 500;       // how long a frame waits for its detections before it is shown without them
-  int pending_frames = 16;         // frames waiting for their detections (older ones are dropped)
+  int join_timeout_ms = 500;       // shortest wait of a frame for its detections before it is shown without them
+  int max_join_wait_ms = 3000;     // longest wait: the wait follows the observed detection delay up to this
+  int pending_frames = 48;         // frames waiting for their detections (older ones are dropped)
   int recent_frames = 8;           // shown frames kept for image requests of slightly late browsers
   int stale_after_ms = 1000;       // the page warns "NO DATA" when no frame arrived for this long
   int status_interval_ms = 500;    // period of the "status" heartbeat event
@@ -60,6 +62,8 @@ struct CrewDisplayParams {
             "wider frames are downscaled before encoding (0 = never)");
     v.field("join_timeout_ms", join_timeout_ms, 0, 5000, "ms",
             "how long a frame waits for its detections before it is shown without them");
+    v.field("max_join_wait_ms", max_join_wait_ms, 0, 30000, "ms",
+            "longest wait for detections (the wait follows the observed detection delay up to this)");
     v.field("pending_frames", pending_frames, 1, 256, "frames", "frames waiting for their detections");
     v.field("recent_frames", recent_frames, 1, 64, "frames", "shown frames kept for image requests");
     v.field("stale_after_ms", stale_after_ms, 100, 60000, "ms", "the page warns NO DATA after this long without frames");
@@ -82,6 +86,7 @@ struct CrewDisplayStats {
   std::uint64_t dropped_superseded = 0;    // a newer frame was ready first
   std::uint64_t dropped_pending_full = 0;  // more than pending_frames waiting
   std::uint64_t results_unmatched = 0;     // result for a frame never seen or already gone
+  double result_delay_ms = 0.0;            // typical delay of detections behind their frame (decaying maximum)
   std::uint64_t jpeg_encodes = 0;          // live images encoded (once per frame asked for)
   double jpeg_encode_ms_avg = 0.0;         // running average
   std::uint64_t images_served = 0;         // image responses (all layers, all browsers)
@@ -155,6 +160,8 @@ class CrewDisplayServer {
   std::condition_variable changed_;   // a new live frame, new metrics, or stop
   std::deque<std::shared_ptr<Frame>> pending_;          // arrival order, oldest first
   std::map<std::string, nlohmann::json> early_results_; // results that came before their frame
+  static constexpr std::size_t kArrivalsKept = 256;     // ~25 s at 10 frames/s
+  std::deque<std::pair<std::string, std::chrono::steady_clock::time_point>> arrivals_;  // recent frames: id, arrival
   std::deque<std::shared_ptr<Frame>> shown_;            // recent live frames, newest last
   std::uint64_t seq_ = 0;                               // seq of the live frame (0 = none yet)
   std::string frame_event_;                             // SSE "frame" event of the live frame

@@ -237,16 +237,18 @@ async function main() {
     }, 250);
     log('frames with detections are arriving');
 
-    const launch = () => chromium.launch({
+    // A browser with a fresh profile (--user-data-dir) each time; without the
+    // background-networking flags Chromium keeps calling out on a closed network.
+    const launch = () => chromium.launchPersistentContext(fs.mkdtempSync(path.join(work, 'chromium-')), {
       executablePath: args.chromium,
       headless: true,
+      viewport: { width: 1024, height: 600 },
       args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking',
-        '--disable-component-update', '--disable-sync',
-        `--user-data-dir=${fs.mkdtempSync(path.join(work, 'chromium-'))}`],
+        '--disable-component-update', '--disable-sync'],
     });
     const browser = await launch();
     browsers.push(browser);
-    const page = await browser.newPage({ viewport: { width: 1024, height: 600 } });
+    const page = browser.pages()[0] || await browser.newPage();
     const pageErrors = [];
     page.on('pageerror', (e) => pageErrors.push(e.message));
 
@@ -300,7 +302,7 @@ async function main() {
     browsers.push(...extra);
     const pages = [page];
     for (const b of extra) {
-      const p = await b.newPage({ viewport: { width: 1024, height: 600 } });
+      const p = b.pages()[0] || await b.newPage();
       await p.goto(url);
       pages.push(p);
     }

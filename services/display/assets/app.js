@@ -88,7 +88,7 @@ function show(ev, image, overlay, correlation) {
   const humans = (ev.result && Array.isArray(ev.result.humans)) ? ev.result.humans.slice() : [];
   humans.sort((a, b) => (a.distance_m ?? Infinity) - (b.distance_m ?? Infinity));
   renderBoxes(humans, ev.width, ev.height);
-  renderPeople(humans);
+  renderPeople(humans, !!ev.result);
 
   stage.dataset.frameId = ev.name ?? ev.frame;
   stage.dataset.frameKey = ev.frame;
@@ -130,6 +130,22 @@ function renderBoxes(humans, width, height) {
     return el;
   });
   boxes.replaceChildren(...items);
+  // Nearest on top; a tag that would cover a nearer person's tag moves up a line.
+  const placed = [];
+  items.forEach((el, i) => {
+    el.style.zIndex = String(100 - i);
+    const tag = el.firstChild;
+    const left = el.offsetLeft;
+    const right = left + tag.offsetWidth;
+    let lift = 0;
+    for (let tries = 0; tries < 4; tries += 1) {
+      const clash = placed.some((p) => left < p.right && right > p.left && Math.abs(p.top - (el.offsetTop - lift)) < tag.offsetHeight);
+      if (!clash) break;
+      lift += tag.offsetHeight;
+    }
+    if (lift) tag.style.transform = `translateY(-${lift}px)`;
+    placed.push({ left, right, top: el.offsetTop - lift });
+  });
 }
 
 function bearing(h) {
@@ -140,7 +156,7 @@ function bearing(h) {
   return `${Math.abs(deg)}\u00b0 ${deg < 0 ? 'left' : 'right'}`;
 }
 
-function renderPeople(humans) {
+function renderPeople(humans, hasResult) {
   const items = humans.map((h) => {
     const li = document.createElement('li');
     li.className = distanceClass(h.distance_m);
@@ -158,7 +174,12 @@ function renderPeople(humans) {
   });
   $('people-list').replaceChildren(...items.slice(0, 6));
   $('people-count').textContent = String(humans.length);
-  $('no-people').hidden = humans.length > 0;
+  const none = $('no-people');
+  none.hidden = humans.length > 0;
+  // No result is not "nobody": the detections of this frame never arrived.
+  none.textContent = hasResult ? 'nobody detected' : 'NO DETECTIONS for this frame';
+  none.className = hasResult ? 'muted' : 'warn-text';
+  none.dataset.hasResult = hasResult ? 'true' : 'false';
 }
 
 function fmt(v, digits) {
