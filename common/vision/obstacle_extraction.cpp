@@ -160,6 +160,19 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       std::isfinite(ground.background_offset) ? static_cast<double>(ground.background_offset) : -1e9;
   if (static_cast<int>(changed_rows.size()) != rows) changed_rows.assign(static_cast<std::size_t>(rows), 1);
 
+  // Removing a left pixel takes its matches out of the correlation counts: it matched
+  // offset d when the right pixel x - d is a feature within the correlation's grey
+  // tolerance. Counting down is exact and far cheaper than recomputing the row.
+  const int corr_tol = correlator.params().grey_tolerance;
+  auto uncount = [&](int y, int x, int a) {
+    int* m = matches.ptr<int>(y);
+    const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+    const int dmax_row = std::min(offsets - 1, x);
+    for (int d = 0; d <= dmax_row; ++d) {
+      const int b = r[x - d];
+      m[d] -= (b != 0) & (std::abs(a - b) <= corr_tol);
+    }
+  };
   // Matched pixels of the box at [d0, d1], optionally cleared and labelled.
   auto sweepBox = [&](const cv::Rect& box, int d0, int d1, int clear_label) {
     int count = 0;
@@ -172,6 +185,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         if (!matchAt(l, r, x, d0, d1, grey, half, cols)) continue;
         ++count;
         if (clear_label >= 0) {
+          uncount(y, x, l[x]);
           l[x] = 0;
           lab[x] = static_cast<std::uint8_t>(clear_label);
           changed = true;
@@ -182,24 +196,34 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     return count;
   };
 
+  // Pending rows (features changed before this stage) are recomputed once; from then on the
+  // counts follow the removals and `changed_rows` only collects the rows whose score is stale.
+  correlator.computeRows(remaining, right, changed_rows, score, matches);
+  std::fill(changed_rows.begin(), changed_rows.end(), std::uint8_t{0});
+
   for (int iteration = 0;
        iteration < params_.max_iterations && static_cast<int>(obstacles.size()) < params_.max_obstacles;
        ++iteration) {
-    correlator.computeRows(remaining, right, changed_rows, score, matches);
-    std::fill(changed_rows.begin(), changed_rows.end(), std::uint8_t{0});
     offsetHistogram(matches, ground);
     const int best = static_cast<int>(std::max_element(offset_hist_.begin(), offset_hist_.end()) - offset_hist_.begin());
     if (offset_hist_[static_cast<std::size_t>(best)] < static_cast<float>(params_.min_peak_matches)) break;
     const int limit = rowLimit(best);
 
+    // Matched pixels at d* (+-tol), once: the histograms below are sums over this mask.
+    mask_.assign(static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols), 0);
+    for (int y = 0; y <= limit; ++y) {
+      const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+      const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+      std::uint8_t* m = &mask_[static_cast<std::size_t>(y) * static_cast<std::size_t>(cols)];
+      for (int x = 0; x < cols; ++x) m[x] = matchAt(l, r, x, best - tol, best + tol, grey, half, cols) ? 1 : 0;
+    }
+    auto maskRow = [&](int y) { return &mask_[static_cast<std::size_t>(y) * static_cast<std::size_t>(cols)]; };
     // Column histogram over the rows that show the offset.
     col_hist_.assign(static_cast<std::size_t>(cols), 0.0f);
     for (int y = 0; y <= limit; ++y) {
       if (matches.ptr<int>(y)[best] - row_median_[static_cast<std::size_t>(y)] < params_.min_row_excess) continue;
-      const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
-      const std::uint8_t* r = right.ptr<std::uint8_t>(y);
-      for (int x = 0; x < cols; ++x)
-        if (matchAt(l, r, x, best - tol, best + tol, grey, half, cols)) col_hist_[static_cast<std::size_t>(x)] += 1.0f;
+      const std::uint8_t* m = maskRow(y);
+      for (int x = 0; x < cols; ++x) col_hist_[static_cast<std::size_t>(x)] += m[x];
     }
     Extent cx = extent(col_hist_, 0, cols - 1, 0, cols - 1);
     Extent cy;
@@ -207,19 +231,17 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       // Row histogram inside the stripe, then the columns again over those rows.
       row_hist_.assign(static_cast<std::size_t>(rows), 0.0f);
       for (int y = 0; y <= limit; ++y) {
-        const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
-        const std::uint8_t* r = right.ptr<std::uint8_t>(y);
-        for (int x = cx.lo; x <= cx.hi; ++x)
-          if (matchAt(l, r, x, best - tol, best + tol, grey, half, cols)) row_hist_[static_cast<std::size_t>(y)] += 1.0f;
+        const std::uint8_t* m = maskRow(y);
+        int sum = 0;
+        for (int x = cx.lo; x <= cx.hi; ++x) sum += m[x];
+        row_hist_[static_cast<std::size_t>(y)] = static_cast<float>(sum);
       }
       cy = extent(row_hist_, 0, limit, 0, limit);
       if (cy.hi >= cy.lo) {
         col_hist_.assign(static_cast<std::size_t>(cols), 0.0f);
         for (int y = cy.lo; y <= cy.hi; ++y) {
-          const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
-          const std::uint8_t* r = right.ptr<std::uint8_t>(y);
-          for (int x = 0; x < cols; ++x)
-            if (matchAt(l, r, x, best - tol, best + tol, grey, half, cols)) col_hist_[static_cast<std::size_t>(x)] += 1.0f;
+          const std::uint8_t* m = maskRow(y);
+          for (int x = 0; x < cols; ++x) col_hist_[static_cast<std::size_t>(x)] += m[x];
         }
         cx = extent(col_hist_, 0, cols - 1, cx.lo, cx.hi);
       }
@@ -242,22 +264,22 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         const int ya = y0;
         const int yb = rowLimit(d);
         if (yb < ya) return false;
-        col_hist_.assign(static_cast<std::size_t>(cols), 0.0f);
-        for (int y = ya; y <= yb; ++y) {
-          const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
-          const std::uint8_t* r = right.ptr<std::uint8_t>(y);
-          for (int x = 0; x < cols; ++x) {
-            if (x >= x0 && x <= x1) continue;
-            if (matchAt(l, r, x, d - tol, d + tol, grey, half, cols)) col_hist_[static_cast<std::size_t>(x)] += 1.0f;
-          }
-        }
+        // Column evidence at d, computed only for the columns a run walks over.
+        auto columnAt = [&](int x) {
+          int count = 0;
+          for (int y = ya; y <= yb; ++y)
+            count += matchAt(remaining.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, d - tol, d + tol, grey,
+                             half, cols);
+          col_hist_[static_cast<std::size_t>(x)] = static_cast<float>(count);
+          return static_cast<float>(count);
+        };
         // Runs of strong columns starting within gap_px of the cluster's sides.
         auto run = [&](int start, int step) {
           int end = start - step;  // last accepted column
           float sum = 0.0f;
           int gap = 0;
           for (int x = start; x >= 0 && x < cols; x += step) {
-            const float v = col_hist_[static_cast<std::size_t>(x)];
+            const float v = columnAt(x);
             if (v >= thr_col) {
               end = x;
               gap = 0;
@@ -345,8 +367,15 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     cluster.feature_count = sweepBox(box, dmin - tol, dmax + tol, cluster.label);
     obstacles.push_back(cluster);
   }
-  // The correlation left behind describes what remains.
-  correlator.computeRows(remaining, right, changed_rows, score, matches);
+  // The score left behind describes what remains (same arithmetic as Correlator).
+  const int min_row = correlator.params().min_row_features;
+  for (int y = 0; y < rows; ++y) {
+    if (!changed_rows[static_cast<std::size_t>(y)]) continue;
+    const float norm = static_cast<float>(std::max(cv::countNonZero(remaining.row(y)), min_row));
+    const int* m = matches.ptr<int>(y);
+    float* sc = score.ptr<float>(y);
+    for (int d = 0; d < offsets; ++d) sc[d] = static_cast<float>(m[d]) / norm;
+  }
   std::fill(changed_rows.begin(), changed_rows.end(), std::uint8_t{0});
 }
 

@@ -1,13 +1,172 @@
+// stereoguard bench: per-stage timings of the Section III segmentation over
+// many frames of a source, and OpenCV StereoBM (128 disparities, block 15, one
+// thread) on the same pairs in the same run, for a side-by-side ratio.
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <vector>
+
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/utility.hpp>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
 
 #include "commands.hpp"
 #include "config/errors.hpp"
+#include "io/frame_source.hpp"
+#include "segment_support.hpp"
 
 namespace sg::cli {
 
+namespace {
+
+struct BenchOptions {
+  std::string source = "synthetic";
+  std::string calib;
+  std::string config;
+  std::string json;
+  int frames = 30;
+  int threads = 0;  // 0 = TBB default
+};
+
+struct Stats {
+  double median = 0.0;
+  double min = 0.0;
+};
+
+Stats stats(std::vector<double> v) {
+  Stats s;
+  if (v.empty()) return s;
+  std::sort(v.begin(), v.end());
+  s.min = v.front();
+  const std::size_t n = v.size();
+  s.median = n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+  return s;
+}
+
+using Clock = std::chrono::steady_clock;
+
+void runBench(const BenchOptions& opt) {
+  if (opt.frames < 1) throw InputError("--frames must be at least 1, got " + std::to_string(opt.frames));
+  if (opt.threads < 0) throw InputError("--threads must be 0 (default) or positive, got " + std::to_string(opt.threads));
+  SegmentConfig config;
+  loadSegmentConfig(opt.config, config);
+  std::optional<tbb::global_control> limit;
+  if (opt.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(opt.threads));
+  const int threads = static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+
+  // Load the frames first: reading and rendering are not part of the measurement.
+  std::unique_ptr<FrameSource> source = openFrameSource(opt.source, opt.calib);
+  std::vector<StereoPair> pairs;
+  while (static_cast<int>(pairs.size()) < opt.frames) {
+    StereoPair pair;
+    if (!source->next(pair)) break;
+    pairs.push_back(std::move(pair));
+  }
+  if (pairs.empty()) throw InputError("source '" + opt.source + "' yielded no frames");
+  const cv::Size size = pairs.front().left.size();
+  const int offsets = config.segmentation.correlation.offsets;
+
+  std::cout << "stereoguard bench\n"
+            << "  source      " << source->describe() << "\n"
+            << "  frames      " << pairs.size() << " (+1 warm-up run, not counted)\n"
+            << "  size        " << size.width << "x" << size.height << "\n"
+            << "  offsets     " << offsets << "\n"
+            << "  threads     " << threads << " (TBB row bands" << (config.segmentation.parallel ? "" : ", disabled")
+            << ")\n"
+            << "  hardware    " << tbb::info::default_concurrency() << " hardware threads\n"
+            << "  StereoBM    128 disparities, block 15, cv::setNumThreads(1)\n"
+            << "  clock       steady_clock; figures are per frame (left + right), milliseconds\n";
+
+  FeatureExtractor features(config.features);
+  Segmenter segmenter(config.segmentation);
+  SegmentationResult result;
+  std::map<std::string, std::vector<double>> stage_ms;
+  std::vector<double> segmentation_ms, stereobm_ms;
+  std::size_t obstacles = 0;
+  auto segmentOne = [&](const StereoPair& pair) {
+    segmentPair(features, segmenter, pair.left, pair.right, pair.rig, result);
+  };
+  segmentOne(pairs.front());  // warm-up: first-touch allocations, TBB thread start-up
+  for (const StereoPair& pair : pairs) {
+    segmenter.reset();  // every frame stands alone (frames of a synthetic source are unrelated)
+    segmentOne(pair);
+    for (const auto& [stage, ms] : result.timing_ms) stage_ms[stage].push_back(ms);
+    segmentation_ms.push_back(result.timing_ms.at("total"));
+    obstacles += result.obstacles.size();
+  }
+
+  const int previous_threads = cv::getNumThreads();
+  cv::setNumThreads(1);
+  cv::Ptr<cv::StereoBM> bm = cv::StereoBM::create(128, 15);
+  cv::Mat disparity;
+  bm->compute(pairs.front().left, pairs.front().right, disparity);  // warm-up
+  for (const StereoPair& pair : pairs) {
+    const auto t0 = Clock::now();
+    bm->compute(pair.left, pair.right, disparity);
+    stereobm_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  }
+  cv::setNumThreads(previous_threads);
+
+  const Stats seg = stats(segmentation_ms);
+  const Stats sbm = stats(stereobm_ms);
+  const double ratio = seg.median > 0 ? sbm.median / seg.median : 0.0;
+  std::cout << std::fixed << std::setprecision(3) << "\n  stage            median      min\n";
+  nlohmann::json stages;
+  for (const char* stage : {"features", "correlation", "ground", "removal", "obstacles", "total"}) {
+    const auto it = stage_ms.find(stage);
+    if (it == stage_ms.end()) continue;
+    const Stats s = stats(it->second);
+    std::cout << "  " << std::left << std::setw(14) << stage << std::right << std::setw(9) << s.median
+              << std::setw(9) << s.min << "\n";
+    stages[stage] = {{"median", s.median}, {"min", s.min}};
+  }
+  std::cout << "  " << std::left << std::setw(14) << "StereoBM" << std::right << std::setw(9) << sbm.median
+            << std::setw(9) << sbm.min << "\n"
+            << "\n  segmentation median " << seg.median << " ms, StereoBM median " << sbm.median
+            << " ms: StereoBM / segmentation = " << std::setprecision(2) << ratio << "\n"
+            << "  obstacles per frame " << static_cast<double>(obstacles) / static_cast<double>(pairs.size()) << "\n";
+
+  // --pipeline (the multi-process DDS pipeline's frames/s and latency) adds its
+  // figures to this same JSON object under "pipeline".
+  if (!opt.json.empty()) {
+    nlohmann::json j;
+    j["source"] = opt.source;
+    j["size"] = {size.width, size.height};
+    j["offsets"] = offsets;
+    j["frames"] = pairs.size();
+    j["threads"] = threads;
+    j["stages_ms"] = stages;
+    j["segmentation_ms"] = {{"median", seg.median}, {"min", seg.min}};
+    j["stereobm_ms"] = {{"median", sbm.median}, {"min", sbm.min}};
+    j["ratio_vs_stereobm"] = ratio;
+    std::ofstream out(opt.json);
+    out << j.dump(2) << "\n";
+    if (!out) throw InputError("--json '" + opt.json + "': cannot write the file");
+    std::cout << "  wrote " << opt.json << "\n";
+  }
+}
+
+}  // namespace
+
 void addBenchCommand(CLI::App& app) {
-  auto* cmd = app.add_subcommand("bench", "(not available yet)");
-  cmd->callback([] { throw InputError("'bench' is not available yet"); });
+  auto opt = std::make_shared<BenchOptions>();
+  auto* cmd = app.add_subcommand("bench", "per-stage timings of the segmentation and OpenCV StereoBM on the same pairs");
+  cmd->add_option("--source", opt->source, "frame source: synthetic[:SEED], pairs:DIR or kitti:DIR")
+      ->capture_default_str();
+  cmd->add_option("--calib", opt->calib, "calibration file overriding the source's own");
+  cmd->add_option("--config", opt->config, "YAML with 'features' and 'segmentation' parameters");
+  cmd->add_option("--frames", opt->frames, "frames measured")->capture_default_str();
+  cmd->add_option("--threads", opt->threads, "TBB threads (0 = all hardware threads)")->capture_default_str();
+  cmd->add_option("--json", opt->json, "write the figures to this JSON file");
+  cmd->callback([opt] { runBench(*opt); });
 }
 
 }  // namespace sg::cli

@@ -1,0 +1,126 @@
+// Acceptance of the Section III segmentation on rendered synthetic scenes with
+// ground truth (io/synthetic_scene.hpp): ground line per terrain profile, the
+// weak-texture fallback, and obstacle recall / spurious obstacles over many seeds.
+#include <cmath>
+#include <cstdio>
+
+#include <gtest/gtest.h>
+
+#include "io/synthetic_scene.hpp"
+#include "test_helpers.hpp"
+#include "vision/segmenter.hpp"
+
+namespace sg {
+namespace {
+
+SegmentationResult segment(const StereoPair& pair) {
+  FeatureExtractor fx;
+  Segmenter seg;
+  SegmentationResult r;
+  segmentPair(fx, seg, pair.left, pair.right, pair.rig, r);
+  return r;
+}
+
+// Share of the truly visible ground rows (offset below D) whose found offset is within +-1.
+double groundRowsWithin1(const GroundProfile& g, const SceneTruth& t, int offsets) {
+  int n = 0, ok = 0;
+  for (std::size_t y = 0; y < t.ground_offset_per_row.size(); ++y) {
+    const float truth = t.ground_offset_per_row[y];
+    if (!std::isfinite(truth) || truth >= static_cast<float>(offsets - 1)) continue;
+    ++n;
+    ok += std::abs(g.offset_per_row[y] - truth) <= 1.0f;
+  }
+  return n ? static_cast<double>(ok) / n : 0.0;
+}
+
+SyntheticSceneParams terrainScene(TerrainProfile terrain, double slope) {
+  SyntheticSceneParams p;
+  p.terrain = terrain;
+  p.slope = slope;
+  p.slope_change_z_m = 15.0;
+  p.people = {SyntheticPerson{-2.0, 12.0, 1.75, false, 3}, SyntheticPerson{3.0, 20.0, 1.7, true, 4}};
+  return p;
+}
+
+void expectGroundFollowsTruth(const SyntheticSceneParams& p, std::uint64_t seed) {
+  const StereoPair pair = renderSyntheticScene(p, seed);
+  ASSERT_TRUE(pair.truth);
+  const SegmentationResult r = segment(pair);
+  EXPECT_EQ(r.ground.source, GroundSource::kHough);
+  EXPECT_GE(groundRowsWithin1(r.ground, *pair.truth, 128), 0.9);
+  EXPECT_NEAR(r.ground.background_offset, pair.truth->background_offset, 1.0);
+}
+
+TEST(SyntheticGround, Flat) { expectGroundFollowsTruth(terrainScene(TerrainProfile::kFlat, 0.0), 11); }
+TEST(SyntheticGround, Uphill) { expectGroundFollowsTruth(terrainScene(TerrainProfile::kUphill, 0.08), 12); }
+TEST(SyntheticGround, Downhill) { expectGroundFollowsTruth(terrainScene(TerrainProfile::kDownhill, 0.08), 13); }
+TEST(SyntheticGround, SlopeChange) {
+  expectGroundFollowsTruth(terrainScene(TerrainProfile::kSlopeChange, 0.10), 14);
+}
+
+TEST(SyntheticGround, WeakTextureFallsBackToThePrior) {
+  SyntheticSceneParams p = terrainScene(TerrainProfile::kFlat, 0.0);
+  p.weak_ground_texture = true;
+  const StereoPair pair = renderSyntheticScene(p, 15);
+  const SegmentationResult r = segment(pair);
+  EXPECT_EQ(r.ground.source, GroundSource::kPrior);
+  // The rig's mounting is the truth on flat ground: the prior must then be right too.
+  EXPECT_GE(groundRowsWithin1(r.ground, *pair.truth, 128), 0.9);
+}
+
+// Obstacles over many random scenes: every object taller than 40 px and nearer
+// than 30 m must be found (offset within +-1 of its disparity at its location,
+// box IoU >= 0.5 with its visible box); at most one spurious obstacle per frame
+// on average. A found obstacle is spurious when less than half of its labelled
+// feature pixels lie on true objects.
+TEST(SyntheticObstacles, RecallAndSpuriousOverManySeeds) {
+  constexpr int kSeeds = 50;
+  constexpr double kRequiredRecall = 0.9;
+  int wanted = 0, found = 0, spurious = 0;
+  for (int seed = 1; seed <= kSeeds; ++seed) {
+    const StereoPair pair =
+        renderSyntheticScene(randomSceneParams(static_cast<std::uint64_t>(seed)), static_cast<std::uint64_t>(seed));
+    const SceneTruth& t = *pair.truth;
+    const SegmentationResult r = segment(pair);
+    const double fb = pair.rig.focal_px * pair.rig.baseline_m;
+    int frame_wanted = 0, frame_found = 0, frame_spurious = 0;
+    for (std::size_t k = 0; k < t.objects.size(); ++k) {
+      const ObjectLabel& o = t.objects[k];
+      if (t.object_visible_px[k] <= 0) continue;
+      const cv::Rect box(cv::Point(static_cast<int>(o.box[0]), static_cast<int>(o.box[1])),
+                         cv::Point(static_cast<int>(o.box[2]) + 1, static_cast<int>(o.box[3]) + 1));
+      if (box.height <= 40 || o.location_m[2] >= 30.0) continue;
+      ++frame_wanted;
+      const double truth_offset = fb / o.location_m[2];
+      for (const ObstacleCluster& c : r.obstacles) {
+        // A cluster grown over many offsets (a wall receding in depth) carries its offset range.
+        const bool offset_ok = std::abs(c.offset_px - truth_offset) <= 1.0 ||
+                               (truth_offset >= c.min_offset_px - 1.0 && truth_offset <= c.max_offset_px + 1.0);
+        if (test::iou(c.box, box) >= 0.5 && offset_ok) {
+          ++frame_found;
+          break;
+        }
+      }
+    }
+    for (const ObstacleCluster& c : r.obstacles) {
+      int on_objects = 0;
+      for (int y = c.box.y; y < c.box.y + c.box.height; ++y)
+        for (int x = c.box.x; x < c.box.x + c.box.width; ++x)
+          on_objects += r.labels.at<std::uint8_t>(y, x) == c.label && t.object_id.at<std::uint16_t>(y, x) >= 2;
+      frame_spurious += 2 * on_objects < c.feature_count;
+    }
+    std::printf("seed %2d: found %d/%d, spurious %d, ground %s\n", seed, frame_found, frame_wanted, frame_spurious,
+                toString(r.ground.source));
+    wanted += frame_wanted;
+    found += frame_found;
+    spurious += frame_spurious;
+  }
+  const double recall = wanted ? static_cast<double>(found) / wanted : 1.0;
+  const double spurious_per_frame = static_cast<double>(spurious) / kSeeds;
+  std::printf("recall %d/%d = %.2f, spurious per frame %.2f\n", found, wanted, recall, spurious_per_frame);
+  EXPECT_GE(recall, kRequiredRecall);
+  EXPECT_LE(spurious_per_frame, 1.0);
+}
+
+}  // namespace
+}  // namespace sg
