@@ -186,5 +186,23 @@ TEST_F(CliTest, UnknownOptionIsBadUsage) {
   EXPECT_EQ(r.status, 2) << r.err;
 }
 
+// detect: a bad SPEC or calibration stops before the first frame.
+TEST_F(CliTest, DetectUnknownSourceKind) {
+  expectBadInput(run({"detect", "--source", "bogus:/somewhere", "--frames", "1", "--out", path("d.jsonl")}),
+                 {"bogus"});
+}
+
+TEST_F(CliTest, DetectMissingKittiDirectory) {
+  expectBadInput(run({"detect", "--source", "kitti:" + path("no_dataset"), "--frames", "1", "--out", path("d.jsonl")}),
+                 {"no_dataset", "not found"});
+}
+
+TEST_F(CliTest, DetectMalformedCalibrationOverride) {
+  const std::string calib = writeText("calib.txt", "P2: 1 2 3\nP3: 1 2 3\n");
+  expectBadInput(run({"detect", "--source", "kitti:" + kData + "/kitti/karlsruhe", "--calib", calib, "--frames", "1",
+                      "--out", path("d.jsonl")}),
+                 {"calib.txt", "'P2' has 3 numbers, expected 12"});
+}
+
 }  // namespace
 }  // namespace sg
