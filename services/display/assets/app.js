@@ -99,6 +99,7 @@ function show(ev, image, overlay, correlation) {
 
   const now = performance.now();
   state.lastShownAt = now;
+  if (!state.firstShownAt) state.firstShownAt = now;
   state.shown += 1;
   document.body.dataset.shown = String(state.shown);
   state.shownTimes.push(now);
@@ -221,8 +222,9 @@ function renderMetrics() {
     return tr;
   });
   // The display's own row: what this screen shows and what it skipped.
-  const fps = state.shownTimes.length > 1
-    ? (1000 * (state.shownTimes.length - 1)) / (state.shownTimes[state.shownTimes.length - 1] - state.shownTimes[0]) : 0;
+  // Frames shown in the last 2 s (or since the first one, when more recent).
+  const span = Math.min(2000, now - (state.firstShownAt || now));
+  const fps = span > 500 ? (1000 * state.shownTimes.filter((t) => now - t <= 2000).length) / span : 0;
   const d = state.status && state.status.display;
   const tr = document.createElement('tr');
   tr.dataset.stage = 'display';
