@@ -115,6 +115,7 @@ class ObstacleExtractor {
   std::vector<float> col_hist_;
   std::vector<float> row_hist_;
   std::vector<float> smooth_;
+  std::vector<int> col_offset_;      // per column: the offset the cluster matched it at
   std::vector<std::uint8_t> mask_;   // matched pixels at the current offset, rows x cols
   std::vector<std::uint8_t> banned_;  // offsets that gave nothing this frame
 };
