@@ -2,8 +2,9 @@
 
 #include <algorithm>
 #include <array>
-#include <unistd.h>
 #include <vector>
+
+#include <unistd.h>
 
 #include <httplib.h>
 #include <opencv2/imgcodecs.hpp>
