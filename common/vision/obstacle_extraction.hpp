@@ -35,15 +35,17 @@ struct ObstacleParams {
   int grey_tolerance = 12;          // grey levels, as in the correlation
   int match_half_window_px = 1;     // a pixel matches when its horizontal neighbours within this match too:
                                     // chance matches (occluded bands, aliased texture) fall by a power of 3
-  int min_row_excess = 3;           // matches above the row median: the row shows something at that offset
-  int min_peak_matches = 120;       // histogram excess of d*; below: nothing significant is left
+  int min_row_excess = 5;           // matches above the row median: the row shows something at that offset
+                                    // (a 5-pixel dilated edge pair matched on one row)
+  int min_peak_matches = 200;       // histogram excess of d*; below: nothing significant is left
+                                    // (a 1.7 m person 30 m away on the KITTI rig: ~40 rows x ~5 matches)
   double extent_fraction = 0.2;     // histogram bins above this fraction of the peak belong to the obstacle
   int gap_px = 6;                   // gaps tolerated inside an obstacle's histograms (pixels)
   int smooth_px = 2;                // half width of the box filter on the histograms (pixels)
   int min_height_px = 12;           // smaller clusters are rejected
   int min_width_px = 4;
-  int min_cluster_features = 60;    // matched feature pixels needed for an obstacle
-  double min_match_fraction = 0.35; // matched share of the box's remaining features: chance matches of
+  int min_cluster_features = 100;   // matched feature pixels needed for an obstacle (half of that person)
+  double min_match_fraction = 0.5;  // matched share of the box's remaining features: chance matches of
                                     // unmatched texture (occlusions, aliasing) stay well below it
   int contact_tolerance_px = 12;    // allowed gap between the cluster bottom and its ground contact row ...
   double contact_tolerance_fraction = 0.35;  // ... or this fraction of its height, whichever is larger

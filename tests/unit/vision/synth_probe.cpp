@@ -21,7 +21,12 @@ int main(int argc, char** argv) {
     const StereoPair pair = renderSyntheticScene(sp, static_cast<std::uint64_t>(seed));
     const auto t1 = std::chrono::steady_clock::now();
     FeatureExtractor fx;
-    Segmenter seg;
+    SegmenterParams sgp;
+    if (const char* v = std::getenv("PEAK")) sgp.obstacles.min_peak_matches = std::atoi(v);
+    if (const char* v = std::getenv("FEAT")) sgp.obstacles.min_cluster_features = std::atoi(v);
+    if (const char* v = std::getenv("FRAC")) sgp.obstacles.min_match_fraction = std::atof(v);
+    if (const char* v = std::getenv("EXCESS")) sgp.obstacles.min_row_excess = std::atoi(v);
+    Segmenter seg(sgp);
     SegmentationResult r;
     segmentPair(fx, seg, pair.left, pair.right, pair.rig, r);
     const SceneTruth& t = *pair.truth;
