@@ -79,7 +79,9 @@ void runStatistics(int n, bool check_recall) {
   std::printf("box bottom |error| px: median %.2f p90 %.2f\n", bottom_median, bottom_p90);
   std::printf("%.1f s for %d frames (%.0f ms/frame incl. rendering)\n", seconds, n, 1000.0 * seconds / n);
 
-  if (check_recall) EXPECT_GE(recall_at, 0.9) << "recall at <= 0.2 false positives per frame";
+  if (check_recall) {
+    EXPECT_GE(recall_at, 0.9) << "recall at <= 0.2 false positives per frame";
+  }
   EXPECT_LE(s.distance_all.median, 0.03) << "median relative distance error";
   EXPECT_LE(bottom_median, 3.0) << "median box-bottom error (pixels) against the true feet row";
 }
