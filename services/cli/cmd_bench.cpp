@@ -21,6 +21,7 @@
 #include "commands.hpp"
 #include "config/errors.hpp"
 #include "io/frame_source.hpp"
+#include "pipeline_bench.hpp"
 #include "segment_support.hpp"
 
 namespace sg::cli {
@@ -34,6 +35,7 @@ struct BenchOptions {
   std::string json;
   int frames = 30;
   int threads = 0;  // 0 = TBB default
+  bool pipeline = false;  // also the multi-process DDS pipeline (pipeline_bench.hpp)
 };
 
 struct Stats {
@@ -136,6 +138,16 @@ void runBench(const BenchOptions& opt) {
 
   // --pipeline (the multi-process DDS pipeline's frames/s and latency) adds its
   // figures to this same JSON object under "pipeline".
+  std::optional<nlohmann::json> pipeline_json;
+  if (opt.pipeline) {
+    PipelineBenchOptions pb;
+    pb.source = opt.source;
+    pb.calib = opt.calib;
+    pb.frames = static_cast<std::uint64_t>(std::max(opt.frames, 1)) * 4;
+    const PipelineBenchResult r = runPipelineBench(pb);
+    std::cout << "\n" << formatPipelineBench(r);
+    pipeline_json = pipelineBenchJson(r);
+  }
   if (!opt.json.empty()) {
     nlohmann::json j;
     j["source"] = opt.source;
@@ -147,6 +159,7 @@ void runBench(const BenchOptions& opt) {
     j["segmentation_ms"] = {{"median", seg.median}, {"min", seg.min}};
     j["stereobm_ms"] = {{"median", sbm.median}, {"min", sbm.min}};
     j["ratio_vs_stereobm"] = ratio;
+    if (pipeline_json) j["pipeline"] = *pipeline_json;
     std::ofstream out(opt.json);
     out << j.dump(2) << "\n";
     if (!out) throw InputError("--json '" + opt.json + "': cannot write the file");
@@ -166,6 +179,8 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--frames", opt->frames, "frames measured")->capture_default_str();
   cmd->add_option("--threads", opt->threads, "TBB threads (0 = all hardware threads)")->capture_default_str();
   cmd->add_option("--json", opt->json, "write the figures to this JSON file");
+  cmd->add_flag("--pipeline", opt->pipeline,
+                "also the multi-process DDS pipeline on loopback: sustained frames/s and latency (4 x --frames)");
   cmd->callback([opt] { runBench(*opt); });
 }
 
