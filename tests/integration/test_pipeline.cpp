@@ -139,7 +139,9 @@ TEST(Pipeline, DetectionsEqualOfflineDetectAndEveryFrameIsAccountedFor) {
       EXPECT_TRUE(near(a.score, b.score, 1e-3));
       EXPECT_TRUE(near(a.distance_m, b.distance_m, 1e-3));
       EXPECT_TRUE(near(a.position_m.x(), b.position_m.x(), 1e-3) && near(a.position_m.z(), b.position_m.z(), 1e-3));
-      if (all_delivered) EXPECT_EQ(a.track_id, b.track_id);
+      if (all_delivered) {
+        EXPECT_EQ(a.track_id, b.track_id);
+      }
       ++humans_compared;
     }
     // The segmentation that went over DDS is the offline one.
