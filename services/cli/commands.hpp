@@ -14,5 +14,8 @@ void addDetectCommand(CLI::App& app);
 void addEvaluateCommand(CLI::App& app);
 void addBenchCommand(CLI::App& app);
 void addRunCommand(CLI::App& app);
+void addConfigDocsCommand(CLI::App& app);
+void addRecordCommand(CLI::App& app);
+void addReplayCommand(CLI::App& app);
 
 }  // namespace sg::cli

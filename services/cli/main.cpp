@@ -19,6 +19,9 @@ int main(int argc, char** argv) {
   sg::cli::addSynthCommand(app);
   sg::cli::addBenchCommand(app);
   sg::cli::addRunCommand(app);
+  sg::cli::addConfigDocsCommand(app);
+  sg::cli::addRecordCommand(app);
+  sg::cli::addReplayCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
