@@ -111,7 +111,9 @@ void Ros2Bridge::run(std::uint64_t frames) {
   while (!runtime_.stopping() && !(frames > 0 && published_ >= frames)) {
     if (ended && pending_.empty()) break;
     runtime_.wait(Clock::now() + std::chrono::milliseconds(20));
-    for (auto samples = frame_reader_.take(); samples.size() > 0; samples = frame_reader_.take()) {
+    for (;;) {
+      auto samples = frame_reader_.take();
+      if (samples.size() == 0) break;
       for (std::size_t i = 0; i < samples.size(); ++i) {
         if (!samples.valid(i)) continue;
         Pending p;
@@ -128,7 +130,9 @@ void Ros2Bridge::run(std::uint64_t frames) {
         }
       }
     }
-    for (auto samples = detections_reader_.take(); samples.size() > 0; samples = detections_reader_.take()) {
+    for (;;) {
+      auto samples = detections_reader_.take();
+      if (samples.size() == 0) break;
       for (std::size_t i = 0; i < samples.size(); ++i) {
         if (!samples.valid(i)) continue;
         dds::DetectionsData d;
