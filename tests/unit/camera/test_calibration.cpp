@@ -12,6 +12,7 @@
 
 #include "camera/calibration.hpp"
 #include "config/errors.hpp"
+#include "temp_dir.hpp"
 
 namespace sg {
 namespace {
@@ -20,29 +21,9 @@ namespace fs = std::filesystem;
 
 const std::string kData = SG_SHARED_DATA_DIR;
 
-class TempDir {
+class TempDir : public test::TempDir {
  public:
-  TempDir() {
-    path_ = fs::temp_directory_path() /
-            ("sg_calib_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-             ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-
-  std::string write(const std::string& name, const std::string& text) const {
-    const fs::path p = path_ / name;
-    fs::create_directories(p.parent_path());
-    std::ofstream(p) << text;
-    return p.string();
-  }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  fs::path path_;
+  TempDir() : test::TempDir("sg_calib") {}
 };
 
 // Expects InputError whose message contains every fragment.

@@ -16,6 +16,7 @@
 #include "camera/calibration.hpp"
 #include "camera/rectifier.hpp"
 #include "config/errors.hpp"
+#include "temp_dir.hpp"
 
 namespace sg {
 namespace {
@@ -115,21 +116,9 @@ RowAlignment measureRowAlignment(const cv::Mat& left, const cv::Mat& right) {
   return out;
 }
 
-class TempDir {
+class TempDir : public test::TempDir {
  public:
-  TempDir() {
-    path_ = fs::temp_directory_path() /
-            ("sg_rectifier_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-             ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  fs::path path_;
+  TempDir() : test::TempDir("sg_rectifier") {}
 };
 
 std::string rosMatrix(const char* key, const cv::Mat& m) {

@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "config/errors.hpp"
+#include "temp_dir.hpp"
 #include "io/frame_source.hpp"
 #include "io/image_file.hpp"
 
@@ -21,32 +22,9 @@ namespace fs = std::filesystem;
 
 const std::string kData = SG_SHARED_DATA_DIR;
 
-class TempDir {
+class TempDir : public test::TempDir {
  public:
-  TempDir() {
-    path_ = fs::temp_directory_path() /
-            ("sg_sources_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-             ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-
-  std::string path() const { return path_.string(); }
-  std::string file(const std::string& name) const {
-    fs::create_directories((path_ / name).parent_path());
-    return (path_ / name).string();
-  }
-  std::string write(const std::string& name, const std::string& text) const {
-    const std::string p = file(name);
-    std::ofstream(p, std::ios::binary) << text;
-    return p;
-  }
-
- private:
-  fs::path path_;
+  TempDir() : test::TempDir("sg_sources") {}
 };
 
 template <class F>
