@@ -1,11 +1,13 @@
 #include "vision/correlation.hpp"
 
 #include <algorithm>
+#include <cstring>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "config/errors.hpp"
+#include "vision/simd_match.hpp"
 
 namespace sg {
 
@@ -71,6 +73,72 @@ void Correlator::correlateRow(const cv::Mat& left, const cv::Mat& right, int y, 
   }
 }
 
+void Correlator::correlateRowFast(const cv::Mat& left, const cv::Mat* before, const cv::Mat& right, int y,
+                                  cv::Mat& score, cv::Mat& matches, std::vector<std::uint8_t>& padded_right) const {
+  const int w = left.cols;
+  const int offsets = params_.offsets;
+  const int tol = params_.grey_tolerance;
+  const std::uint8_t* l = left.ptr<std::uint8_t>(y);
+  float* s = score.ptr<float>(y);
+  int* m = matches.ptr<int>(y);
+  int l0 = 0, l1 = w;
+  while (l0 < w && l[l0] == 0) ++l0;
+  while (l1 > l0 && l[l1 - 1] == 0) --l1;
+  int n_left = 0;
+  for (int x = l0; x < l1; ++x) n_left += l[x] != 0;
+
+  // Update from `before`: valid when every pixel of `left` is the `before` pixel or 0.
+  const std::uint8_t* b = before != nullptr ? before->ptr<std::uint8_t>(y) : nullptr;
+  int n_removed = 0, b0 = w, b1 = 0;
+  if (b != nullptr) {
+    for (int x = 0; x < w; ++x) {
+      if (l[x] != 0 && l[x] != b[x]) {
+        b = nullptr;  // not a removal: recompute the row
+        break;
+      }
+      if (b[x] != 0 && l[x] == 0) {
+        ++n_removed;
+        b0 = std::min(b0, x);
+        b1 = x + 1;
+      }
+    }
+  }
+  if (b == nullptr || n_removed > 0) {
+    const int pad = simd::rightPadding(offsets);
+    if (padded_right.size() < static_cast<std::size_t>(pad + w)) padded_right.resize(static_cast<std::size_t>(pad + w));
+    std::uint8_t* rp = padded_right.data() + pad;
+    std::memset(padded_right.data(), 0, static_cast<std::size_t>(pad));
+    std::memcpy(rp, right.ptr<std::uint8_t>(y), static_cast<std::size_t>(w));
+    if (b != nullptr && n_removed < n_left) {
+      // Count the removed pixels (in `before`, 0 in `left`) out: m = -(-m + removed).
+      for (int d = 0; d < offsets; ++d) m[d] = -m[d];
+      simd::accumulateMatches(b, l, rp, b0, b1, offsets, tol, m);
+      for (int d = 0; d < offsets; ++d) m[d] = -m[d];
+    } else {
+      std::fill(m, m + offsets, 0);
+      simd::accumulateMatches(l, nullptr, rp, l0, l1, offsets, tol, m);
+    }
+  }
+  const float norm = static_cast<float>(std::max(n_left, params_.min_row_features));
+  for (int d = 0; d < offsets; ++d) s[d] = static_cast<float>(m[d]) / norm;
+}
+
+std::vector<std::uint8_t>& Correlator::bandScratch(int band) { return band_scratch_[static_cast<std::size_t>(band)]; }
+
+template <class Fn>
+void Correlator::forEachRow(int rows, Fn&& fn) {
+  const int band = params_.band_rows;
+  const int bands = (rows + band - 1) / band;
+  if (static_cast<int>(band_scratch_.size()) < bands) band_scratch_.resize(static_cast<std::size_t>(bands));
+  tbb::parallel_for(tbb::blocked_range<int>(0, bands), [&](const tbb::blocked_range<int>& range) {
+    for (int k = range.begin(); k != range.end(); ++k) {
+      std::vector<std::uint8_t>& scratch = bandScratch(k);
+      const int y1 = std::min((k + 1) * band, rows);
+      for (int y = k * band; y < y1; ++y) fn(y, scratch);
+    }
+  });
+}
+
 void Correlator::computeReference(const cv::Mat& left, const cv::Mat& right, cv::Mat& score, cv::Mat& matches) {
   prepare(left, right, score, matches);
   for (int y = 0; y < left.rows; ++y) correlateRow(left, right, y, score, matches);
@@ -78,13 +146,8 @@ void Correlator::computeReference(const cv::Mat& left, const cv::Mat& right, cv:
 
 void Correlator::compute(const cv::Mat& left, const cv::Mat& right, cv::Mat& score, cv::Mat& matches) {
   prepare(left, right, score, matches);
-  const int band = params_.band_rows;
-  const int bands = (left.rows + band - 1) / band;
-  tbb::parallel_for(tbb::blocked_range<int>(0, bands), [&](const tbb::blocked_range<int>& range) {
-    for (int b = range.begin(); b != range.end(); ++b) {
-      const int y1 = std::min((b + 1) * band, left.rows);
-      for (int y = b * band; y < y1; ++y) correlateRow(left, right, y, score, matches);
-    }
+  forEachRow(left.rows, [&](int y, std::vector<std::uint8_t>& scratch) {
+    correlateRowFast(left, nullptr, right, y, score, matches, scratch);
   });
 }
 
@@ -100,14 +163,24 @@ void Correlator::computeRows(const cv::Mat& left, const cv::Mat& right, const st
     return;
   }
   prepare(left, right, score, matches);
-  const int band = params_.band_rows;
-  const int bands = (left.rows + band - 1) / band;
-  tbb::parallel_for(tbb::blocked_range<int>(0, bands), [&](const tbb::blocked_range<int>& range) {
-    for (int b = range.begin(); b != range.end(); ++b) {
-      const int y1 = std::min((b + 1) * band, left.rows);
-      for (int y = b * band; y < y1; ++y)
-        if (rows[static_cast<std::size_t>(y)] != 0) correlateRow(left, right, y, score, matches);
-    }
+  forEachRow(left.rows, [&](int y, std::vector<std::uint8_t>& scratch) {
+    if (rows[static_cast<std::size_t>(y)] != 0) correlateRowFast(left, nullptr, right, y, score, matches, scratch);
+  });
+}
+
+void Correlator::updateRows(const cv::Mat& before, const cv::Mat& after, const cv::Mat& right,
+                            const std::vector<std::uint8_t>& rows, cv::Mat& score, cv::Mat& matches) {
+  if (before.size() != after.size() || before.type() != CV_8UC1) {
+    throw InputError("correlation: the image before removal must be mono8 of the same size as after it");
+  }
+  if (score.rows != after.rows || score.cols != params_.offsets || score.type() != CV_32F ||
+      matches.size() != score.size() || matches.type() != CV_32S || static_cast<int>(rows.size()) != after.rows) {
+    compute(after, right, score, matches);
+    return;
+  }
+  prepare(after, right, score, matches);
+  forEachRow(after.rows, [&](int y, std::vector<std::uint8_t>& scratch) {
+    if (rows[static_cast<std::size_t>(y)] != 0) correlateRowFast(after, &before, right, y, score, matches, scratch);
   });
 }
 

@@ -53,16 +53,34 @@ class Correlator {
   // identical to a full compute on the same inputs.
   void computeRows(const cv::Mat& left, const cv::Mat& right, const std::vector<std::uint8_t>& rows, cv::Mat& score,
                    cv::Mat& matches);
+  // After pixels were taken out of the left feature image: `matches` holds the
+  // correlation of `before`, `after` is `before` with some pixels set to 0 on the
+  // rows with rows[y] != 0. Each such row is updated by counting the removed
+  // pixels out or the remaining ones afresh, whichever are fewer (a row where
+  // `after` is not such a subset of `before` is recomputed). Identical to a full
+  // compute of `after`.
+  void updateRows(const cv::Mat& before, const cv::Mat& after, const cv::Mat& right,
+                  const std::vector<std::uint8_t>& rows, cv::Mat& score, cv::Mat& matches);
 
   const CorrelationParams& params() const { return params_; }
 
  private:
   void prepare(const cv::Mat& left, const cv::Mat& right, cv::Mat& score, cv::Mat& matches) const;
+  // Serial reference of one row (countRowMatches per offset).
   void correlateRow(const cv::Mat& left, const cv::Mat& right, int y, cv::Mat& score, cv::Mat& matches) const;
+  // Fast row: vector kernel over the left feature pixels only. `before` not null:
+  // update from the correlation of `before` (see updateRows).
+  void correlateRowFast(const cv::Mat& left, const cv::Mat* before, const cv::Mat& right, int y, cv::Mat& score,
+                        cv::Mat& matches, std::vector<std::uint8_t>& padded_right) const;
+  std::vector<std::uint8_t>& bandScratch(int band);
+  // Runs fn(y, scratch) for every row of `rows` rows in parallel row bands.
+  template <class Fn>
+  void forEachRow(int rows, Fn&& fn);
 
   CorrelationParams params_;
   cv::Mat scratch_score_;  // for the score-only overload
   cv::Mat scratch_matches_;
+  std::vector<std::vector<std::uint8_t>> band_scratch_;  // per band: padded right row, reused across frames
 };
 
 }  // namespace sg

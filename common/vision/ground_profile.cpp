@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "config/errors.hpp"
 #include "vision/correlation.hpp"
+#include "vision/simd_match.hpp"
 
 namespace sg {
 
@@ -14,7 +16,7 @@ void GroundEstimator::findPeaks(const cv::Mat& score) {
   peaks_.clear();
   row_peak_begin_.assign(static_cast<std::size_t>(score.rows) + 1, 0);
   const int offsets = score.cols;
-  std::vector<Peak> row_peaks;
+  std::vector<Peak>& row_peaks = row_peaks_;
   for (int y = 0; y < score.rows; ++y) {
     row_peak_begin_[static_cast<std::size_t>(y)] = static_cast<int>(peaks_.size());
     const float* s = score.ptr<float>(y);
@@ -28,7 +30,13 @@ void GroundEstimator::findPeaks(const cv::Mat& score) {
       if (left_ok && right_ok && s[d] >= floor) row_peaks.push_back(Peak{y, d, s[d]});
     }
     // Strongest first; ties keep the smaller offset (stable sort on a deterministic order).
-    std::stable_sort(row_peaks.begin(), row_peaks.end(), [](const Peak& a, const Peak& b) { return a.weight > b.weight; });
+    // (Insertion sort: stable like std::stable_sort, without its temporary buffer.)
+    for (std::size_t i = 1; i < row_peaks.size(); ++i) {
+      const Peak p = row_peaks[i];
+      std::size_t j = i;
+      for (; j > 0 && p.weight > row_peaks[j - 1].weight; --j) row_peaks[j] = row_peaks[j - 1];
+      row_peaks[j] = p;
+    }
     const std::size_t keep = std::min(row_peaks.size(), static_cast<std::size_t>(params_.max_peaks_per_row));
     peaks_.insert(peaks_.end(), row_peaks.begin(), row_peaks.begin() + static_cast<std::ptrdiff_t>(keep));
   }
@@ -71,6 +79,83 @@ std::optional<GroundLine> GroundEstimator::hough(const std::vector<std::uint8_t>
       }
       if (sum > best) {
         best = sum;
+        best_k = k;
+        best_b = b;
+      }
+    }
+  }
+  if (best_k < 0) return std::nullopt;
+  GroundLine line;
+  line.slope = params_.min_slope + best_k * params_.slope_step;
+  line.horizon_row = best_b - rows;
+  return line;
+}
+
+std::optional<GroundLine> GroundEstimator::houghFast(const std::vector<std::uint8_t>& use, int rows, int offsets) {
+  // Same votes and sums as hough(), in the same order per bin: bit-identical.
+  const int n_slopes = static_cast<int>(std::floor((params_.max_slope - params_.min_slope) / params_.slope_step)) + 1;
+  const int n_bins = 2 * rows;
+  if (slope_table_offsets_ != offsets || slope_table_.size() != static_cast<std::size_t>(offsets) * n_slopes) {
+    // offset / slope for every offset and slope, as hough() divides them.
+    slope_table_.resize(static_cast<std::size_t>(offsets) * static_cast<std::size_t>(n_slopes));
+    for (int d = 0; d < offsets; ++d)
+      for (int k = 0; k < n_slopes; ++k) {
+        const double s = params_.min_slope + k * params_.slope_step;
+        slope_table_[static_cast<std::size_t>(d) * static_cast<std::size_t>(n_slopes) + static_cast<std::size_t>(k)] =
+            d / s;
+      }
+    slope_table_offsets_ = offsets;
+  }
+  // Accumulator with a zero border of one bin and one slope on each side.
+  const std::size_t stride = static_cast<std::size_t>(n_bins) + 2;
+  padded_acc_.assign((static_cast<std::size_t>(n_slopes) + 2) * stride, 0.0f);
+  auto accRow = [&](int k) { return &padded_acc_[(static_cast<std::size_t>(k) + 1) * stride + 1]; };
+  bool any = false;
+  for (std::size_t i = 0; i < peaks_.size(); ++i) {
+    const Peak& p = peaks_[i];
+    if (!use[i] || p.offset < 1 || p.offset >= offsets) continue;
+    any = true;
+    const double* q = &slope_table_[static_cast<std::size_t>(p.offset) * static_cast<std::size_t>(n_slopes)];
+    const double row = p.row;
+    for (int k = 0; k < n_slopes; ++k) {
+      // std::lround(row - q[k]) without the library call: truncate, then round half away from zero
+      // (v - trunc(v) is exact for these magnitudes).
+      const double v = row - q[k];
+      long t = static_cast<long>(v);
+      const double frac = v - static_cast<double>(t);
+      t += (frac >= 0.5) - (frac <= -0.5);
+      const long bin = t + rows;
+      if (bin < 0 || bin >= n_bins) continue;
+      accRow(k)[bin] += p.weight;
+    }
+  }
+  if (!any) return std::nullopt;
+  // 3x3 sums in the reference's order (rows k-1, k, k+1; bins b-1, b, b+1); the zero
+  // border adds +0.0f where the reference skips a term, which leaves a sum unchanged.
+  window_sums_.resize(static_cast<std::size_t>(n_bins));
+  float best = 0.0f;
+  int best_k = -1, best_b = -1;
+  for (int k = 0; k < n_slopes; ++k) {
+    const float* __restrict a = accRow(k - 1);
+    const float* __restrict c = accRow(k);
+    const float* __restrict e = accRow(k + 1);
+    float* __restrict out = window_sums_.data();
+    for (int b = 0; b < n_bins; ++b) {
+      float sum = 0.0f;
+      sum += a[b - 1];
+      sum += a[b];
+      sum += a[b + 1];
+      sum += c[b - 1];
+      sum += c[b];
+      sum += c[b + 1];
+      sum += e[b - 1];
+      sum += e[b];
+      sum += e[b + 1];
+      out[b] = sum;
+    }
+    for (int b = 0; b < n_bins; ++b) {
+      if (out[b] > best) {
+        best = out[b];
         best_k = k;
         best_b = b;
       }
@@ -129,10 +214,11 @@ GroundLine GroundEstimator::refit(const GroundLine& line, int row_begin, int row
   return out;
 }
 
-float GroundEstimator::backgroundOffset(const cv::Mat& score, int rows_above) const {
+float GroundEstimator::backgroundOffset(const cv::Mat& score, int rows_above) {
   const int rows = std::clamp(rows_above, 0, score.rows);
   if (rows == 0) return 0.0f;
-  std::vector<float> sums(static_cast<std::size_t>(score.cols), 0.0f);
+  std::vector<float>& sums = background_sums_;
+  sums.assign(static_cast<std::size_t>(score.cols), 0.0f);
   for (int y = 0; y < rows; ++y) {
     const float* s = score.ptr<float>(y);
     for (int d = 0; d < score.cols; ++d) sums[static_cast<std::size_t>(d)] += s[d];
@@ -142,19 +228,26 @@ float GroundEstimator::backgroundOffset(const cv::Mat& score, int rows_above) co
   return static_cast<float>(best - sums.begin());
 }
 
-void GroundEstimator::estimateRoll(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
-                                   GroundProfile& ground) {
+bool GroundEstimator::rollSetUp(const cv::Mat& left, const StereoRig& rig, GroundProfile& ground) const {
   ground.offset_per_column = 0.0f;
   ground.reference_column = static_cast<float>(rig.focal_px > 0 ? rig.cx_px : left.cols / 2.0);
+  return params_.roll_strips >= 3 && ground.source != GroundSource::kNone && !left.empty() &&
+         static_cast<int>(ground.offset_per_row.size()) == left.rows;
+}
+
+namespace {
+constexpr int kRollGreyTolerance = 12;  // grey levels, as the correlation default
+}  // namespace
+
+void GroundEstimator::estimateRollReference(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
+                                            GroundProfile& ground) {
+  if (!rollSetUp(left, rig, ground)) return;
   const int strips = params_.roll_strips;
-  if (strips < 3 || ground.source == GroundSource::kNone || left.empty() ||
-      static_cast<int>(ground.offset_per_row.size()) != left.rows)
-    return;
   const int w = left.cols;
   const int search = params_.roll_search_px;
   const int bins = 2 * search + 1;
   roll_hist_.assign(static_cast<std::size_t>(strips * bins), 0.0);
-  const int tol = 12;  // grey levels, as the correlation default
+  const int tol = kRollGreyTolerance;
   for (int y = std::max(ground.horizon_row + 2, 0); y < left.rows; ++y) {
     const float g = ground.offset_per_row[static_cast<std::size_t>(y)];
     if (!std::isfinite(g)) continue;
@@ -173,10 +266,55 @@ void GroundEstimator::estimateRoll(const cv::Mat& left, const cv::Mat& right, co
       }
     }
   }
+  rollFit(w, ground);
+}
+
+void GroundEstimator::estimateRoll(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
+                                   GroundProfile& ground) {
+  if (!rollSetUp(left, rig, ground)) return;
+  const int strips = params_.roll_strips;
+  const int w = left.cols;
+  const int search = params_.roll_search_px;
+  const int bins = 2 * search + 1;
+  roll_hist_.assign(static_cast<std::size_t>(strips * bins), 0.0);
+  roll_counts_.resize(static_cast<std::size_t>(simd::kLanes));
+  // Right row with kLanes zeros in front: the window kernel reads up to kLanes - 1 before x - d_first.
+  const int pad = simd::kLanes;
+  roll_right_.resize(static_cast<std::size_t>(pad + w));
+  std::fill(roll_right_.begin(), roll_right_.begin() + pad, std::uint8_t{0});
+  std::uint8_t* rp = roll_right_.data() + pad;
+  for (int y = std::max(ground.horizon_row + 2, 0); y < left.rows; ++y) {
+    const float g = ground.offset_per_row[static_cast<std::size_t>(y)];
+    if (!std::isfinite(g)) continue;
+    const int base = static_cast<int>(std::lround(g));
+    const std::uint8_t* l = left.ptr<std::uint8_t>(y);
+    std::memcpy(rp, right.ptr<std::uint8_t>(y), static_cast<std::size_t>(w));
+    // Offsets base - search .. base + search, negative ones left out, in windows of kLanes.
+    for (int b_first = std::max(0, search - base); b_first < bins; b_first += simd::kLanes) {
+      const int count = std::min(simd::kLanes, bins - b_first);
+      const int d_first = base + b_first - search;
+      for (int k = 0; k < strips; ++k) {
+        const int x0 = k * w / strips;
+        const int x1 = (k + 1) * w / strips;
+        if (std::max(x0, d_first) >= x1) continue;
+        std::fill(roll_counts_.begin(), roll_counts_.end(), 0);
+        simd::accumulateMatchesWindow(l, rp, x0, x1, d_first, count, kRollGreyTolerance, roll_counts_.data());
+        double* h = &roll_hist_[static_cast<std::size_t>(k * bins + b_first)];
+        for (int i = 0; i < count; ++i) h[i] += roll_counts_[static_cast<std::size_t>(i)];
+      }
+    }
+  }
+  rollFit(w, ground);
+}
+
+void GroundEstimator::rollFit(int w, GroundProfile& ground) {
+  const int strips = params_.roll_strips;
+  const int search = params_.roll_search_px;
+  const int bins = 2 * search + 1;
   // Peak per strip (with parabolic refinement), weighted by its height above the strip's median.
   double sw = 0, sx = 0, sd = 0, sxx = 0, sxd = 0;
   int used = 0;
-  std::vector<double> sorted(static_cast<std::size_t>(bins));
+  std::vector<double>& sorted = roll_sorted_;
   for (int k = 0; k < strips; ++k) {
     const double* h = &roll_hist_[static_cast<std::size_t>(k * bins)];
     const int best = static_cast<int>(std::max_element(h, h + bins) - h);
@@ -204,6 +342,19 @@ void GroundEstimator::estimateRoll(const cv::Mat& left, const cv::Mat& right, co
 
 void GroundEstimator::compute(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous,
                               int previous_age_frames, GroundProfile& out) {
+  computeImpl(score, rig, previous, previous_age_frames, out, false);
+}
+
+void GroundEstimator::computeReference(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous,
+                                       int previous_age_frames, GroundProfile& out) {
+  computeImpl(score, rig, previous, previous_age_frames, out, true);
+}
+
+void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous,
+                                  int previous_age_frames, GroundProfile& out, bool reference) {
+  auto houghOf = [&](const std::vector<std::uint8_t>& use, int rows, int offsets) {
+    return reference ? hough(use, rows, offsets) : houghFast(use, rows, offsets);
+  };
   if (score.empty() || score.type() != CV_32F) throw InputError("ground: the correlation image must be CV_32F");
   const int rows = score.rows;
   const int offsets = score.cols;
@@ -212,7 +363,7 @@ void GroundEstimator::compute(const cv::Mat& score, const StereoRig& rig, const 
   findPeaks(score);
 
   use_.assign(peaks_.size(), 1);
-  std::optional<GroundLine> l1 = hough(use_, rows, offsets);
+  std::optional<GroundLine> l1 = houghOf(use_, rows, offsets);
   bool measured = false;
   if (l1) {
     int row_begin = static_cast<int>(std::ceil(l1->horizon_row));
@@ -238,7 +389,7 @@ void GroundEstimator::compute(const cv::Mat& score, const StereoRig& rig, const 
         const Peak& p = peaks_[i];
         use_[i] = p.row > l1->horizon_row && std::abs(p.offset - l1->offsetAt(p.row)) > tol;
       }
-      std::optional<GroundLine> l2 = hough(use_, rows, offsets);
+      std::optional<GroundLine> l2 = houghOf(use_, rows, offsets);
       if (l2 && std::abs(l2->slope - l1->slope) > 0.05 * l1->slope) {
         const double yj = (l1->slope * l1->horizon_row - l2->slope * l2->horizon_row) / (l1->slope - l2->slope);
         const int top = static_cast<int>(std::ceil(std::min(l1->horizon_row, l2->horizon_row)));

@@ -87,8 +87,12 @@ class GroundEstimator {
 
   // score: CV_32F rows x D correlation image. `previous`: the last measured
   // profile and its age in frames (for the fallback), or nullptr.
+  // Fast path (table-driven Hough votes, vectorised neighbourhood search, no
+  // allocation once sized); bit-identical to computeReference.
   void compute(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous, int previous_age_frames,
                GroundProfile& out);
+  void computeReference(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous,
+                        int previous_age_frames, GroundProfile& out);
 
   // The main (first) line of the last compute, when measured.
   const std::optional<GroundLine>& mainLine() const { return main_line_; }
@@ -96,8 +100,11 @@ class GroundEstimator {
 
   // Transversal slope: fills ground.offset_per_column / reference_column from the
   // offsets of column strips of the ground rows around the line (feature images).
+  // Vector kernel over the left feature pixels; bit-identical to estimateRollReference.
   void estimateRoll(const cv::Mat& left_features, const cv::Mat& right_features, const StereoRig& rig,
                     GroundProfile& ground);
+  void estimateRollReference(const cv::Mat& left_features, const cv::Mat& right_features, const StereoRig& rig,
+                             GroundProfile& ground);
 
   const GroundParams& params() const { return params_; }
 
@@ -107,11 +114,17 @@ class GroundEstimator {
     int offset;
     float weight;
   };
+  void computeImpl(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous, int previous_age_frames,
+                   GroundProfile& out, bool reference);
   void findPeaks(const cv::Mat& score);
   std::optional<GroundLine> hough(const std::vector<std::uint8_t>& use, int rows, int offsets) const;
+  std::optional<GroundLine> houghFast(const std::vector<std::uint8_t>& use, int rows, int offsets);
+  // Roll: rows, strips and offsets to histogram; false when the roll is not estimated.
+  bool rollSetUp(const cv::Mat& left, const StereoRig& rig, GroundProfile& ground) const;
+  void rollFit(int width, GroundProfile& ground);
   int support(const GroundLine& line, int row_begin, int row_end, int offsets, int* crossed) const;
   GroundLine refit(const GroundLine& line, int row_begin, int row_end) const;
-  float backgroundOffset(const cv::Mat& score, int rows_above) const;
+  float backgroundOffset(const cv::Mat& score, int rows_above);
 
   GroundParams params_;
   std::vector<Peak> peaks_;
@@ -119,6 +132,16 @@ class GroundEstimator {
   mutable std::vector<float> accumulator_;
   std::vector<std::uint8_t> use_;
   std::vector<double> roll_hist_;
+  // Scratch of the fast paths, sized on the first frame and reused.
+  std::vector<Peak> row_peaks_;
+  std::vector<double> slope_table_;     // offset / slope, offsets x slopes (for the offsets it was built for)
+  int slope_table_offsets_ = 0;
+  std::vector<float> padded_acc_;       // Hough accumulator with a zero border
+  std::vector<float> window_sums_;      // 3x3 sums of one slope row
+  std::vector<float> background_sums_;
+  std::vector<double> roll_sorted_;
+  std::vector<std::uint8_t> roll_right_;  // padded right row
+  std::vector<int> roll_counts_;
   std::optional<GroundLine> main_line_;
   std::optional<GroundLine> second_line_;
 };

@@ -44,8 +44,9 @@ void Segmenter::compute(const cv::Mat& left_features, const cv::Mat& right_featu
   out.timing_ms["correlation"] = msSince(t);
 
   t = Clock::now();
-  ground_.compute(out.correlation_initial, rig, have_previous_ ? &previous_ground_ : nullptr, previous_age_frames_,
-                  out.ground);
+  const GroundProfile* previous = have_previous_ ? &previous_ground_ : nullptr;
+  if (params_.parallel) ground_.compute(out.correlation_initial, rig, previous, previous_age_frames_, out.ground);
+  else ground_.computeReference(out.correlation_initial, rig, previous, previous_age_frames_, out.ground);
   if (out.ground.source == GroundSource::kHough) {
     previous_ground_ = out.ground;
     previous_age_frames_ = 1;
@@ -53,7 +54,8 @@ void Segmenter::compute(const cv::Mat& left_features, const cv::Mat& right_featu
   } else if (have_previous_) {
     ++previous_age_frames_;
   }
-  ground_.estimateRoll(left_features, right_features, rig, out.ground);
+  if (params_.parallel) ground_.estimateRoll(left_features, right_features, rig, out.ground);
+  else ground_.estimateRollReference(left_features, right_features, rig, out.ground);
   out.timing_ms["ground"] = msSince(t);
 
   t = Clock::now();
@@ -61,9 +63,14 @@ void Segmenter::compute(const cv::Mat& left_features, const cv::Mat& right_featu
     remover_.compute(left_features, right_features, out.ground, remaining_, out.labels, changed_rows_);
   else
     remover_.computeReference(left_features, right_features, out.ground, remaining_, out.labels, changed_rows_);
-  // The correlation after removal: only the rows that lost features change.
+  // The correlation after removal: only the rows that lost features change, and on
+  // those the removed pixels are counted out (or the remaining ones counted afresh).
   out.correlation_initial.copyTo(out.correlation_after_removal);
-  correlator_.computeRows(remaining_, right_features, changed_rows_, out.correlation_after_removal, matches_);
+  if (params_.parallel)
+    correlator_.updateRows(left_features, remaining_, right_features, changed_rows_, out.correlation_after_removal,
+                           matches_);
+  else
+    correlator_.computeReference(remaining_, right_features, out.correlation_after_removal, matches_);
   std::fill(changed_rows_.begin(), changed_rows_.end(), std::uint8_t{0});
   out.timing_ms["removal"] = msSince(t);
 

@@ -1,5 +1,6 @@
 // The row-band parallel paths give bit-identical outputs to the serial
 // references, whatever the thread count, on analytic and real pairs.
+#include <cstring>
 #include <optional>
 
 #include <gtest/gtest.h>
@@ -59,8 +60,19 @@ TEST_P(ParallelExact, EveryStageMatchesItsReference) {
     ASSERT_TRUE(test::sameBits(m, m_ref)) << "correlation matches";
 
     GroundEstimator ground;
-    GroundProfile profile;
+    GroundProfile profile, profile_ref;
+    ground.computeReference(s_ref, p.rig, nullptr, 0, profile_ref);
     ground.compute(s_ref, p.rig, nullptr, 0, profile);
+    ASSERT_EQ(profile.source, profile_ref.source);
+    ASSERT_EQ(profile.horizon_row, profile_ref.horizon_row) << "ground horizon";
+    ASSERT_EQ(0, std::memcmp(profile.offset_per_row.data(), profile_ref.offset_per_row.data(),
+                             profile.offset_per_row.size() * sizeof(float)))
+        << "ground offsets per row";
+    ASSERT_EQ(profile.vertices, profile_ref.vertices);
+    ground.estimateRollReference(lf, rf, p.rig, profile_ref);
+    ground.estimateRoll(lf, rf, p.rig, profile);
+    ASSERT_EQ(profile.offset_per_column, profile_ref.offset_per_column) << "transversal slope";
+    ASSERT_EQ(profile.reference_column, profile_ref.reference_column);
     FeatureRemover remover;
     cv::Mat rem_ref, lab_ref, rem, lab;
     std::vector<std::uint8_t> ch_ref, ch;
@@ -70,10 +82,29 @@ TEST_P(ParallelExact, EveryStageMatchesItsReference) {
     ASSERT_TRUE(test::sameBits(lab, lab_ref)) << "removal labels";
     ASSERT_EQ(ch, ch_ref) << "removal changed rows";
 
-    // Row updates equal a full recomputation.
+    // Row updates equal a full recomputation: recomputed rows, and rows with the
+    // removed pixels counted out.
+    cv::Mat s_before = s.clone(), m_before = m.clone();
     corr.computeRows(rem, rf, ch, s, m);
     corr.computeReference(rem, rf, s_ref, m_ref);
     ASSERT_TRUE(test::sameBits(s, s_ref)) << "row update";
+    ASSERT_TRUE(test::sameBits(m, m_ref)) << "row update matches";
+    cv::Mat s_upd = s_before.clone(), m_upd = m_before.clone();
+    corr.updateRows(lf, rem, rf, ch, s_upd, m_upd);
+    ASSERT_TRUE(test::sameBits(s_upd, s_ref)) << "update after removal";
+    ASSERT_TRUE(test::sameBits(m_upd, m_ref)) << "update after removal, matches";
+    // A row that is not a removal (a pixel changed value) is recomputed, not counted down.
+    {
+      cv::Mat changed = rem.clone();
+      std::vector<std::uint8_t> every_row(static_cast<std::size_t>(rem.rows), 1);
+      for (int y = 0; y < changed.rows; y += 7)
+        for (int x = 0; x < changed.cols; x += 5) changed.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(40 + (x % 50));
+      cv::Mat s_chg = s_before.clone(), m_chg = m_before.clone(), s_chg_ref, m_chg_ref;
+      corr.updateRows(lf, changed, rf, every_row, s_chg, m_chg);
+      corr.computeReference(changed, rf, s_chg_ref, m_chg_ref);
+      ASSERT_TRUE(test::sameBits(m_chg, m_chg_ref)) << "update of rows that gained pixels";
+      ASSERT_TRUE(test::sameBits(s_chg, s_chg_ref));
+    }
 
     // The obstacle stage counts removed pixels out of the correlation: the counts it
     // leaves behind equal a fresh correlation of what remains.
@@ -108,6 +139,64 @@ TEST_P(ParallelExact, EveryStageMatchesItsReference) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Threads, ParallelExact, ::testing::Values(1, 2, 4));
+
+// Random feature rows (runs of features, grey values over the whole range
+// including 1 and 255) exercise every vector width of the correlation kernel:
+// one, two, four, eight and a run-time number of 32-offset groups, partial
+// groups, tolerances from 0 to 254, images narrower than the offsets.
+TEST(FastCorrelation, MatchesTheReferenceForAnyOffsetsToleranceAndWidth) {
+  cv::RNG rng(12345);
+  for (const cv::Size size : {cv::Size(37, 5), cv::Size(300, 9), cv::Size(1000, 4)}) {
+    cv::Mat left(size, CV_8UC1), right(size, CV_8UC1);
+    for (cv::Mat* m : {&left, &right})
+      for (int y = 0; y < size.height; ++y)
+        for (int x = 0; x < size.width; ++x) {
+          const bool feature = ((x / 7 + y) % 3) != 0 && rng.uniform(0, 10) > 1;
+          const int grey = rng.uniform(0, 4) == 0 ? (rng.uniform(0, 2) ? 1 : 255) : rng.uniform(1, 256);
+          m->at<std::uint8_t>(y, x) = feature ? static_cast<std::uint8_t>(grey) : 0;
+        }
+    for (int offsets : {1, 31, 32, 33, 64, 100, 128, 256, 300}) {
+      for (int tol : {0, 12, 254}) {
+        SCOPED_TRACE("size " + std::to_string(size.width) + ", offsets " + std::to_string(offsets) + ", tolerance " +
+                     std::to_string(tol));
+        CorrelationParams cp;
+        cp.offsets = offsets;
+        cp.grey_tolerance = tol;
+        cp.band_rows = 2;
+        Correlator corr(cp);
+        cv::Mat s_ref, m_ref, s, m;
+        corr.computeReference(left, right, s_ref, m_ref);
+        corr.compute(left, right, s, m);
+        ASSERT_TRUE(test::sameBits(m, m_ref));
+        ASSERT_TRUE(test::sameBits(s, s_ref));
+      }
+    }
+  }
+}
+
+// The roll histogram over more offsets than one vector holds (65 bins), on real pairs.
+TEST(FastGround, WideRollSearchMatchesTheReference) {
+  const std::vector<Pair> all = pairs();
+  for (const Pair& p : all) {
+    SCOPED_TRACE(p.name);
+    FeatureExtractor fx;
+    cv::Mat lf, rf, s, m;
+    fx.compute(p.left, lf);
+    fx.compute(p.right, rf);
+    Correlator().compute(lf, rf, s, m);
+    GroundParams gp;
+    gp.roll_search_px = 32;
+    gp.min_roll_px = 0.0;
+    GroundEstimator ground(gp);
+    GroundProfile a, b;
+    ground.computeReference(s, p.rig, nullptr, 0, a);
+    ground.compute(s, p.rig, nullptr, 0, b);
+    ground.estimateRollReference(lf, rf, p.rig, a);
+    ground.estimateRoll(lf, rf, p.rig, b);
+    ASSERT_EQ(a.horizon_row, b.horizon_row);
+    ASSERT_EQ(a.offset_per_column, b.offset_per_column);
+  }
+}
 
 }  // namespace
 }  // namespace sg

@@ -1,0 +1,184 @@
+#include "vision/simd_match.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cstring>
+
+// The 32-byte vector helpers below are internal and always inlined: the note
+// about their calling convention without AVX does not apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
+
+namespace sg::simd {
+
+namespace {
+
+typedef std::uint8_t U8x32 __attribute__((vector_size(32)));
+typedef std::uint32_t U32x8 __attribute__((vector_size(32)));
+
+[[gnu::always_inline]] inline U8x32 load(const std::uint8_t* p) {
+  U8x32 v;
+  std::memcpy(&v, p, sizeof(v));
+  return v;
+}
+
+[[gnu::always_inline]] inline U8x32 splat(int value) {
+  // Broadcast as 32-bit words (one move and one broadcast; a byte-wise
+  // initialiser is assembled lane by lane).
+  const std::uint32_t word = static_cast<std::uint32_t>(value & 0xFF) * 0x01010101u;
+  return std::bit_cast<U8x32>(U32x8{} + word);
+}
+
+// Adds the byte lanes of `acc` to counts[first_lane_offset - j] for lane j (offsets
+// below `offsets` only) and clears them. Lanes go through memory: indexing a vector
+// register by a variable would keep the accumulators out of registers.
+[[gnu::always_inline]] inline void flushLanes(U8x32& acc, int first_lane_offset, int offsets, int* counts) {
+  std::uint8_t lanes[kLanes];
+  std::memcpy(lanes, &acc, sizeof(lanes));
+  for (int j = 0; j < kLanes; ++j) {
+    const int d = first_lane_offset - j;
+    if (d >= 0 && d < offsets) counts[d] += lanes[j];
+  }
+  acc = U8x32{};
+}
+
+// b matches a when b lies in [lo, hi] = [max(a - tol, 1), min(a + tol, 255)]:
+// (b - lo) mod 256 <= hi - lo. b = 0 wraps to 256 - lo > hi - lo, so non-features never match.
+[[gnu::always_inline]] inline U8x32 matchMask(U8x32 b, U8x32 lo, U8x32 width) {
+  return __builtin_convertvector((b - lo) <= width, U8x32);
+}
+
+// Lane j of vector i holds the count of offset d = dv - 1 - (kLanes * i + j).
+template <int NV>
+[[gnu::always_inline]] inline void accumulateImpl(const std::uint8_t* left, const std::uint8_t* skip,
+                                                  const std::uint8_t* right, int x0, int x1, int nv_runtime,
+                                                  int offsets, int tol, int* counts) {
+  constexpr int kMaxVectors = 1024 / kLanes;
+  const int nv = NV > 0 ? NV : nv_runtime;
+  const int dv = nv * kLanes;
+  U8x32 acc[NV > 0 ? NV : kMaxVectors];
+  for (int i = 0; i < nv; ++i) acc[i] = U8x32{};
+  auto flush = [&] {
+    for (int i = 0; i < nv; ++i) flushLanes(acc[i], dv - 1 - kLanes * i, offsets, counts);
+  };
+  // Feature pixels are gathered (branch-free) into chunks of at most 255, the
+  // most a byte lane can count, then matched and flushed.
+  int idx[255];
+  int x = x0;
+  while (x < x1) {
+    int n = 0;
+    if (skip == nullptr) {
+      for (; x < x1 && n < 255; ++x) {
+        idx[n] = x;
+        n += left[x] != 0;
+      }
+    } else {
+      for (; x < x1 && n < 255; ++x) {
+        idx[n] = x;
+        n += (left[x] != 0) & (skip[x] == 0);
+      }
+    }
+    for (int k = 0; k < n; ++k) {
+      const int xi = idx[k];
+      const int a = left[xi];
+      const int lo = std::max(a - tol, 1);
+      const int hi = std::min(a + tol, 255);
+      const U8x32 vlo = splat(lo);
+      const U8x32 vw = splat(hi - lo);
+      const std::uint8_t* base = right + xi - (dv - 1);
+      for (int i = 0; i < nv; ++i) acc[i] -= matchMask(load(base + kLanes * i), vlo, vw);
+    }
+    if (n > 0) flush();
+  }
+}
+
+[[gnu::always_inline]] inline void dispatchAccumulate(const std::uint8_t* left, const std::uint8_t* skip,
+                                                      const std::uint8_t* right, int x0, int x1, int offsets,
+                                                      int tol, int* counts) {
+  const int nv = rightPadding(offsets) / kLanes;
+  switch (nv) {
+    case 1: accumulateImpl<1>(left, skip, right, x0, x1, nv, offsets, tol, counts); break;
+    case 2: accumulateImpl<2>(left, skip, right, x0, x1, nv, offsets, tol, counts); break;
+    case 4: accumulateImpl<4>(left, skip, right, x0, x1, nv, offsets, tol, counts); break;
+    case 8: accumulateImpl<8>(left, skip, right, x0, x1, nv, offsets, tol, counts); break;
+    default: accumulateImpl<0>(left, skip, right, x0, x1, nv, offsets, tol, counts); break;
+  }
+}
+
+[[gnu::always_inline]] inline void windowImpl(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1,
+                                              int d_first, int count, int tol, int* counts) {
+  U8x32 acc{};
+  // Lane j is offset d_first + kLanes - 1 - j, i.e. counts index kLanes - 1 - j.
+  int idx[255];
+  int x = std::max(x0, d_first);
+  while (x < x1) {
+    int n = 0;
+    for (; x < x1 && n < 255; ++x) {
+      idx[n] = x;
+      n += left[x] != 0;
+    }
+    for (int k = 0; k < n; ++k) {
+      const int xi = idx[k];
+      const int a = left[xi];
+      const int lo = std::max(a - tol, 1);
+      const int hi = std::min(a + tol, 255);
+      acc -= matchMask(load(right + xi - d_first - (kLanes - 1)), splat(lo), splat(hi - lo));
+    }
+    if (n > 0) flushLanes(acc, kLanes - 1, count, counts);
+  }
+}
+
+#if defined(__x86_64__) || defined(__i386__)
+#define SG_SIMD_X86 1
+[[gnu::target("avx2")]] void accumulateAvx2(const std::uint8_t* left, const std::uint8_t* skip,
+                                            const std::uint8_t* right, int x0, int x1, int offsets, int tol,
+                                            int* counts) {
+  dispatchAccumulate(left, skip, right, x0, x1, offsets, tol, counts);
+}
+[[gnu::target("avx2")]] void windowAvx2(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1,
+                                        int d_first, int count, int tol, int* counts) {
+  windowImpl(left, right, x0, x1, d_first, count, tol, counts);
+}
+#endif
+
+void accumulateBaseline(const std::uint8_t* left, const std::uint8_t* skip, const std::uint8_t* right, int x0, int x1,
+                        int offsets, int tol, int* counts) {
+  dispatchAccumulate(left, skip, right, x0, x1, offsets, tol, counts);
+}
+void windowBaseline(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d_first, int count,
+                    int tol, int* counts) {
+  windowImpl(left, right, x0, x1, d_first, count, tol, counts);
+}
+
+bool useAvx2() {
+#ifdef SG_SIMD_X86
+  static const bool avx2 = [] {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") != 0;
+  }();
+  return avx2;
+#else
+  return false;
+#endif
+}
+
+}  // namespace
+
+void accumulateMatches(const std::uint8_t* left, const std::uint8_t* skip, const std::uint8_t* right, int x0, int x1,
+                       int offsets, int grey_tolerance, int* counts) {
+#ifdef SG_SIMD_X86
+  if (useAvx2()) return accumulateAvx2(left, skip, right, x0, x1, offsets, grey_tolerance, counts);
+#endif
+  accumulateBaseline(left, skip, right, x0, x1, offsets, grey_tolerance, counts);
+}
+
+void accumulateMatchesWindow(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d_first,
+                             int count, int grey_tolerance, int* counts) {
+#ifdef SG_SIMD_X86
+  if (useAvx2()) return windowAvx2(left, right, x0, x1, d_first, count, grey_tolerance, counts);
+#endif
+  windowBaseline(left, right, x0, x1, d_first, count, grey_tolerance, counts);
+}
+
+const char* kernelName() { return useAvx2() ? "avx2" : "baseline"; }
+
+}  // namespace sg::simd

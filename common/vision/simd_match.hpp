@@ -1,0 +1,34 @@
+#pragma once
+// Vector kernels shared by the correlation, the ground roll estimate and the
+// feature images. Integer arithmetic only: every kernel gives exactly the
+// counts of its scalar reference. Written with the compiler's portable vector
+// types; on x86-64 an AVX2 build of each kernel is picked at run time when the
+// processor has it, otherwise the baseline (SSE2) build runs.
+#include <cstdint>
+
+namespace sg::simd {
+
+// Offsets are handled in groups of this many lanes.
+constexpr int kLanes = 32;
+
+// Zero bytes a right row needs in front of its first pixel for `offsets`
+// offsets (the kernel reads right x - d for d up to the rounded-up offset count).
+constexpr int rightPadding(int offsets) { return ((offsets + kLanes - 1) / kLanes) * kLanes; }
+
+// For every left pixel x in [x0, x1) with left[x] != 0 (and skip[x] == 0 when
+// skip is not null), adds 1 to counts[d] for each offset d in [0, offsets)
+// where right[x - d] != 0 and |left[x] - right[x - d]| <= grey_tolerance.
+// `right` must be readable (and 0) at indices -rightPadding(offsets) .. -1.
+void accumulateMatches(const std::uint8_t* left, const std::uint8_t* skip, const std::uint8_t* right, int x0, int x1,
+                       int offsets, int grey_tolerance, int* counts);
+
+// Same for a window of offsets [d_first, d_first + count) with count <= kLanes:
+// counts[i] gets the matches at offset d_first + i. `right` must be readable
+// (and 0) down to index x0 - d_first - kLanes + 1 when that is negative.
+void accumulateMatchesWindow(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d_first,
+                             int count, int grey_tolerance, int* counts);
+
+// Name of the build in use ("avx2" or "baseline").
+const char* kernelName();
+
+}  // namespace sg::simd
