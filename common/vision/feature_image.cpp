@@ -7,6 +7,7 @@
 #include <tbb/parallel_for.h>
 
 #include "config/errors.hpp"
+#include "vision/simd_match.hpp"
 
 namespace sg {
 
@@ -50,6 +51,20 @@ void FeatureExtractor::computeRows(const cv::Mat& grey, cv::Mat& features, int y
   }
 }
 
+void FeatureExtractor::computeRowsFast(const cv::Mat& grey, cv::Mat& features, int y0, int y1,
+                                       std::vector<std::uint8_t>& scratch) const {
+  const int w = grey.cols;
+  const int h = grey.rows;
+  const int r = params_.dilation_half_width_px;
+  const auto size = static_cast<std::size_t>(simd::featureScratchSize(w, r));
+  if (scratch.size() < size) scratch.resize(size);
+  for (int y = y0; y < y1; ++y) {
+    simd::featureRow(grey.ptr<std::uint8_t>(std::max(y - 1, 0)), grey.ptr<std::uint8_t>(y),
+                     grey.ptr<std::uint8_t>(std::min(y + 1, h - 1)), w, params_.edge_threshold, r, scratch.data(),
+                     features.ptr<std::uint8_t>(y));
+  }
+}
+
 void FeatureExtractor::computeReference(const cv::Mat& grey, cv::Mat& features) {
   checkInput(grey, features);
   if (band_scratch_.empty()) band_scratch_.resize(1);
@@ -60,12 +75,12 @@ void FeatureExtractor::compute(const cv::Mat& grey, cv::Mat& features) {
   checkInput(grey, features);
   const int band = params_.band_rows;
   const int bands = (grey.rows + band - 1) / band;
-  if (static_cast<int>(band_scratch_.size()) < bands) band_scratch_.resize(static_cast<std::size_t>(bands));
+  if (static_cast<int>(band_bytes_.size()) < bands) band_bytes_.resize(static_cast<std::size_t>(bands));
   tbb::parallel_for(tbb::blocked_range<int>(0, bands), [&](const tbb::blocked_range<int>& range) {
     for (int b = range.begin(); b != range.end(); ++b) {
       const int y0 = b * band;
       const int y1 = std::min(y0 + band, grey.rows);
-      computeRows(grey, features, y0, y1, band_scratch_[static_cast<std::size_t>(b)]);
+      computeRowsFast(grey, features, y0, y1, band_bytes_[static_cast<std::size_t>(b)]);
     }
   });
 }

@@ -54,8 +54,12 @@ class FeatureExtractor {
   // The one kernel: rows [y0, y1) of `features`; `scratch` holds 2 * width + 1 ints.
   void computeRows(const cv::Mat& grey, cv::Mat& features, int y0, int y1, std::vector<int>& scratch) const;
 
+  // Fast kernel (vector Sobel, dilation and mask) for rows [y0, y1).
+  void computeRowsFast(const cv::Mat& grey, cv::Mat& features, int y0, int y1, std::vector<std::uint8_t>& scratch) const;
+
   FeatureParams params_;
-  std::vector<std::vector<int>> band_scratch_;  // one per band, reused across frames
+  std::vector<std::vector<int>> band_scratch_;  // reference: one per band, reused across frames
+  std::vector<std::vector<std::uint8_t>> band_bytes_;  // fast path: one per band, reused across frames
 };
 
 }  // namespace sg

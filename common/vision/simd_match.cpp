@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cstdlib>
 #include <cstring>
 
 // The 32-byte vector helpers below are internal and always inlined: the note
@@ -127,6 +128,67 @@ template <int NV>
   }
 }
 
+typedef std::uint8_t U8x16 __attribute__((vector_size(16)));
+typedef std::int16_t I16x16 __attribute__((vector_size(32)));
+
+[[gnu::always_inline]] inline I16x16 widen(const std::uint8_t* p) {
+  U8x16 v;
+  std::memcpy(&v, p, sizeof(v));
+  return __builtin_convertvector(v, I16x16);
+}
+
+[[gnu::always_inline]] inline int scalarEdge(const std::uint8_t* pm, const std::uint8_t* p0, const std::uint8_t* pp,
+                                             int x, int w, int thr) {
+  const int xm = x > 0 ? x - 1 : 0;
+  const int xp = x < w - 1 ? x + 1 : w - 1;
+  const int gx = (pm[xp] + 2 * p0[xp] + pp[xp]) - (pm[xm] + 2 * p0[xm] + pp[xm]);
+  const int gy = (pp[xm] + 2 * pp[x] + pp[xp]) - (pm[xm] + 2 * pm[x] + pm[xp]);
+  return (std::abs(gx) + std::abs(gy)) >= thr ? 0xFF : 0;
+}
+
+[[gnu::always_inline]] inline void featureRowImpl(const std::uint8_t* pm, const std::uint8_t* p0,
+                                                  const std::uint8_t* pp, int w, int thr, int r,
+                                                  std::uint8_t* scratch, std::uint8_t* out) {
+  // Edge bytes (0 / 0xFF) with r zeros on the left and r + kLanes on the right.
+  std::uint8_t* e = scratch + r;
+  std::memset(scratch, 0, static_cast<std::size_t>(r));
+  std::memset(e + w, 0, static_cast<std::size_t>(r + kLanes));
+  constexpr int kStep = 16;
+  int x = 0;
+  if (w > 0) e[0] = static_cast<std::uint8_t>(scalarEdge(pm, p0, pp, 0, w, thr));
+  x = 1;
+  // |gx| + |gy| <= 8 * 255 fits 16 bits.
+  const I16x16 vthr = I16x16{} + static_cast<std::int16_t>(std::min(thr, 32767));
+  for (; x + kStep <= w - 1; x += kStep) {
+    const I16x16 am = widen(pm + x - 1), a0 = widen(pm + x), ap = widen(pm + x + 1);
+    const I16x16 bm = widen(p0 + x - 1), bp = widen(p0 + x + 1);
+    const I16x16 cm = widen(pp + x - 1), c0 = widen(pp + x), cp = widen(pp + x + 1);
+    const I16x16 gx = (ap + bp + bp + cp) - (am + bm + bm + cm);
+    const I16x16 gy = (cm + c0 + c0 + cp) - (am + a0 + a0 + ap);
+    const I16x16 ax = gx < 0 ? -gx : gx;
+    const I16x16 ay = gy < 0 ? -gy : gy;
+    const auto edge = __builtin_convertvector((ax + ay) >= vthr, U8x16);  // -1 -> 0xFF
+    std::memcpy(e + x, &edge, sizeof(edge));
+  }
+  for (; x < w; ++x) e[x] = static_cast<std::uint8_t>(scalarEdge(pm, p0, pp, x, w, thr));
+  // Dilation and masked copy.
+  const U8x32 one = splat(1);
+  x = 0;
+  for (; x + kLanes <= w; x += kLanes) {
+    U8x32 on = load(e + x - r);
+    for (int k = -r + 1; k <= r; ++k) on |= load(e + x + k);
+    U8x32 grey = load(p0 + x);
+    grey = grey < one ? one : grey;
+    const U8x32 v = grey & on;
+    std::memcpy(out + x, &v, sizeof(v));
+  }
+  for (; x < w; ++x) {
+    int on = 0;
+    for (int k = -r; k <= r; ++k) on |= e[x + k];
+    out[x] = on ? std::max<std::uint8_t>(p0[x], 1) : std::uint8_t{0};
+  }
+}
+
 #if defined(__x86_64__) || defined(__i386__)
 #define SG_SIMD_X86 1
 [[gnu::target("avx2")]] void accumulateAvx2(const std::uint8_t* left, const std::uint8_t* skip,
@@ -138,7 +200,16 @@ template <int NV>
                                         int d_first, int count, int tol, int* counts) {
   windowImpl(left, right, x0, x1, d_first, count, tol, counts);
 }
+[[gnu::target("avx2")]] void featureRowAvx2(const std::uint8_t* pm, const std::uint8_t* p0, const std::uint8_t* pp,
+                                            int w, int thr, int r, std::uint8_t* scratch, std::uint8_t* out) {
+  featureRowImpl(pm, p0, pp, w, thr, r, scratch, out);
+}
 #endif
+
+void featureRowBaseline(const std::uint8_t* pm, const std::uint8_t* p0, const std::uint8_t* pp, int w, int thr, int r,
+                        std::uint8_t* scratch, std::uint8_t* out) {
+  featureRowImpl(pm, p0, pp, w, thr, r, scratch, out);
+}
 
 void accumulateBaseline(const std::uint8_t* left, const std::uint8_t* skip, const std::uint8_t* right, int x0, int x1,
                         int offsets, int tol, int* counts) {
@@ -177,6 +248,14 @@ void accumulateMatchesWindow(const std::uint8_t* left, const std::uint8_t* right
   if (useAvx2()) return windowAvx2(left, right, x0, x1, d_first, count, grey_tolerance, counts);
 #endif
   windowBaseline(left, right, x0, x1, d_first, count, grey_tolerance, counts);
+}
+
+void featureRow(const std::uint8_t* pm, const std::uint8_t* p0, const std::uint8_t* pp, int width, int threshold,
+                int radius, std::uint8_t* scratch, std::uint8_t* out) {
+#ifdef SG_SIMD_X86
+  if (useAvx2()) return featureRowAvx2(pm, p0, pp, width, threshold, radius, scratch, out);
+#endif
+  featureRowBaseline(pm, p0, pp, width, threshold, radius, scratch, out);
 }
 
 const char* kernelName() { return useAvx2() ? "avx2" : "baseline"; }

@@ -28,6 +28,15 @@ void accumulateMatches(const std::uint8_t* left, const std::uint8_t* skip, const
 void accumulateMatchesWindow(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d_first,
                              int count, int grey_tolerance, int* counts);
 
+// One row of a feature image (FeatureExtractor): Sobel |gx| + |gy| of row p0
+// with rows pm (above) and pp (below), replicated at the row ends; edge where it
+// reaches `threshold`; edges dilated horizontally by `radius`; out[x] =
+// max(p0[x], 1) inside the dilated mask, else 0. `scratch` holds at least
+// featureScratchSize(width, radius) bytes.
+constexpr int featureScratchSize(int width, int radius) { return width + 2 * radius + 2 * kLanes; }
+void featureRow(const std::uint8_t* pm, const std::uint8_t* p0, const std::uint8_t* pp, int width, int threshold,
+                int radius, std::uint8_t* scratch, std::uint8_t* out);
+
 // Name of the build in use ("avx2" or "baseline").
 const char* kernelName();
 
