@@ -1,7 +1,20 @@
 # SG_SANITIZE: AddressSanitizer + UndefinedBehaviorSanitizer for every target.
 # SG_TSAN: ThreadSanitizer (cannot be combined with ASan).
+# SG_FUZZ: libFuzzer targets in tests/fuzz (clang only); every target is built
+# with ASan + UBSan and libFuzzer's coverage instrumentation.
 if(SG_SANITIZE AND SG_TSAN)
   message(FATAL_ERROR "SG_SANITIZE and SG_TSAN are mutually exclusive")
+endif()
+if(SG_FUZZ)
+  if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang" OR NOT CMAKE_C_COMPILER_ID MATCHES "Clang")
+    message(FATAL_ERROR "SG_FUZZ needs clang (libFuzzer): configure with "
+                        "-DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14")
+  endif()
+  if(SG_TSAN)
+    message(FATAL_ERROR "SG_FUZZ and SG_TSAN are mutually exclusive")
+  endif()
+  add_compile_options(-fsanitize=fuzzer-no-link)
+  set(SG_SANITIZE ON)
 endif()
 if(SG_SANITIZE)
   add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)

@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <vector>
 
 #include <opencv2/calib3d.hpp>
@@ -190,8 +191,12 @@ class OpenCvDoc final : public CalibDoc {
       storage_.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
     } catch (const cv::Exception& e) {
       fail(file, "cannot parse the OpenCV calibration file: " + e.msg);
+    } catch (const std::length_error& e) {
+      // OpenCV 4.6's YAML parser throws this on a key that is only ':'.
+      fail(file, std::string("cannot parse the OpenCV calibration file: malformed key (") + e.what() + ")");
     }
     if (!storage_.isOpened()) fail(file, "cannot parse the OpenCV calibration file");
+    if (!storage_.root().isMap()) fail(file, "expected a mapping of calibration fields at the top level");
   }
 
   bool has(const std::string& key) const override { return !storage_[key].empty() && !storage_[key].isNone(); }
@@ -204,7 +209,14 @@ class OpenCvDoc final : public CalibDoc {
       const cv::FileNode cols = node["cols"];
       if (data.empty()) fail(file_, "field '" + key + "' has no 'data'");
       if (rows.empty() || cols.empty()) fail(file_, "field '" + key + "' has no 'rows'/'cols'");
-      const int expected = static_cast<int>(rows) * static_cast<int>(cols);
+      const bool whole = (rows.isInt() || rows.isReal()) && (cols.isInt() || cols.isReal());
+      const double nrows = whole ? static_cast<double>(rows) : -1.0;
+      const double ncols = whole ? static_cast<double>(cols) : -1.0;
+      if (!(nrows >= 0.0 && nrows <= 64.0 && ncols >= 0.0 && ncols <= 64.0) || nrows != std::floor(nrows) ||
+          ncols != std::floor(ncols)) {
+        fail(file_, "field '" + key + "': 'rows' and 'cols' must be whole numbers within 0..64");
+      }
+      const int expected = static_cast<int>(nrows) * static_cast<int>(ncols);
       if (data.isSeq() && static_cast<int>(data.size()) != expected) {
         fail(file_, "field '" + key + "' has " + std::to_string(data.size()) + " numbers, expected rows x cols = " +
                         std::to_string(expected));
@@ -573,7 +585,12 @@ StereoCalibration loadCalibration(const std::string& path, cv::Size image_size) 
   StereoCalibration calib;
   if (startsWith(head, "%YAML") || startsWith(head, "<?xml") || startsWith(head, "<opencv_storage")) {
     const OpenCvDoc doc(path, text);
-    calib = readOpenCvStereo(doc, image_size);
+    try {
+      calib = readOpenCvStereo(doc, image_size);
+    } catch (const cv::Exception& e) {
+      // OpenCV asserts on node kinds it did not expect; still a bad file, not a crash.
+      fail(path, "not a usable OpenCV calibration: " + e.msg);
+    }
   } else if (ext == ".yaml" || ext == ".yml") {
     const YamlDoc doc(path, text);
     calib = readOpenCvStereo(doc, image_size);

@@ -85,6 +85,11 @@ cv::Mat readMono8(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) fail(path, "cannot open the image file");
   const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return decodeMono8(bytes, path);
+}
+
+cv::Mat decodeMono8(const std::vector<unsigned char>& bytes, const std::string& what) {
+  const std::string& path = what;
   if (bytes.empty()) fail(path, "empty image file");
   checkComplete(path, bytes);
   cv::Mat image;

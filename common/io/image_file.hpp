@@ -14,6 +14,10 @@ namespace sg {
 // right for every sensor and a silent guess would change every feature threshold.
 cv::Mat readMono8(const std::string& path);
 
+// The same checks and conversion on the bytes of an image file already in
+// memory; `what` names it in messages (a path, a topic, a field).
+cv::Mat decodeMono8(const std::vector<unsigned char>& bytes, const std::string& what);
+
 // True for the image file extensions the sources accept (case-insensitive):
 // .png .pgm .ppm .pnm .jpg .jpeg .bmp.
 bool isImageFileName(const std::string& path);
