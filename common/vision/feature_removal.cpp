@@ -8,6 +8,7 @@
 #include <tbb/parallel_for.h>
 
 #include "config/errors.hpp"
+#include "vision/simd_match.hpp"
 
 namespace sg {
 
@@ -67,6 +68,70 @@ void FeatureRemover::removeRows(const cv::Mat& left, const cv::Mat& right, const
   }
 }
 
+void FeatureRemover::removeRowsFast(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
+                                    cv::Mat& remaining, cv::Mat& labels, std::vector<std::uint8_t>& changed_rows,
+                                    int y0, int y1, BandScratch& scratch) const {
+  const int w = left.cols;
+  const int tol = params_.grey_tolerance;
+  const int otol = params_.offset_tolerance_px;
+  scratch.marks.resize(static_cast<std::size_t>(w));
+  scratch.d0.resize(static_cast<std::size_t>(w));
+  scratch.d1.resize(static_cast<std::size_t>(w));
+  std::uint8_t* marks = scratch.marks.data();
+  int* d0 = scratch.d0.data();
+  int* d1 = scratch.d1.data();
+  for (int y = y0; y < y1; ++y) {
+    const std::uint8_t* l = left.ptr<std::uint8_t>(y);
+    const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+    std::uint8_t* out = remaining.ptr<std::uint8_t>(y);
+    std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+    const float offset = ground.offset_per_row.empty() ? GroundProfile::kUnknown
+                                                       : ground.offset_per_row[static_cast<std::size_t>(y)];
+    const bool is_ground = y >= ground.horizon_row;
+    const float per_column = is_ground ? ground.offset_per_column : 0.0f;
+    const float ref = ground.reference_column;
+    // Windows too far out for exact integer floor/ceil below go through the reference row.
+    const bool tame = std::isfinite(offset) && std::isfinite(per_column) && std::isfinite(ref) &&
+                      std::abs(offset) < 1e6f && std::abs(per_column) * (static_cast<float>(w) + std::abs(ref)) < 1e6f;
+    if (std::isfinite(offset) && !tame) {
+      removeRows(left, right, ground, remaining, labels, changed_rows, y, y + 1);
+      continue;
+    }
+    std::fill(marks, marks + w, std::uint8_t{0});
+    bool changed = false;
+    if (tame) {
+      // The reference's window per column: floor/ceil of the same float centre.
+      for (int x = 0; x < w; ++x) {
+        const float centre = offset + per_column * (static_cast<float>(x) - ref);
+        const int t = static_cast<int>(centre);
+        const float tf = static_cast<float>(t);
+        const int fl = t - (centre < tf ? 1 : 0);
+        const int cl = t + (centre > tf ? 1 : 0);
+        d0[x] = std::max(fl - otol, 0);
+        d1[x] = cl + otol;
+      }
+      // Runs of columns sharing a window.
+      for (int xa = 0; xa < w;) {
+        int xb = xa + 1;
+        while (xb < w && d0[xb] == d0[xa] && d1[xb] == d1[xa]) ++xb;
+        simd::markMatches(l, r, xa, xb, d0[xa], d1[xa], tol, marks);
+        xa = xb;
+      }
+    }
+    const std::uint8_t label = is_ground ? kLabelGround : kLabelBackground;
+    std::uint8_t any = 0;
+    for (int x = 0; x < w; ++x) {
+      const std::uint8_t m = marks[x];
+      const std::uint8_t a = l[x];
+      out[x] = m ? std::uint8_t{0} : a;
+      lab[x] = a == 0 ? std::uint8_t{kLabelNone} : (m ? label : std::uint8_t{kLabelUnassigned});
+      any |= m;
+    }
+    changed = any != 0;
+    changed_rows[static_cast<std::size_t>(y)] = changed ? 1 : 0;
+  }
+}
+
 void FeatureRemover::computeReference(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
                                       cv::Mat& remaining, cv::Mat& labels, std::vector<std::uint8_t>& changed_rows) {
   prepare(left, right, ground, remaining, labels, changed_rows);
@@ -78,9 +143,11 @@ void FeatureRemover::compute(const cv::Mat& left, const cv::Mat& right, const Gr
   prepare(left, right, ground, remaining, labels, changed_rows);
   const int band = params_.band_rows;
   const int bands = (left.rows + band - 1) / band;
+  if (static_cast<int>(band_scratch_.size()) < bands) band_scratch_.resize(static_cast<std::size_t>(bands));
   tbb::parallel_for(tbb::blocked_range<int>(0, bands), [&](const tbb::blocked_range<int>& range) {
     for (int b = range.begin(); b != range.end(); ++b)
-      removeRows(left, right, ground, remaining, labels, changed_rows, b * band, std::min((b + 1) * band, left.rows));
+      removeRowsFast(left, right, ground, remaining, labels, changed_rows, b * band, std::min((b + 1) * band, left.rows),
+                     band_scratch_[static_cast<std::size_t>(b)]);
   });
 }
 

@@ -49,7 +49,18 @@ class FeatureRemover {
   void removeRows(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& remaining,
                   cv::Mat& labels, std::vector<std::uint8_t>& changed_rows, int y0, int y1) const;
 
+  // Fast rows: offset windows computed per column, matched by a vector kernel over runs
+  // of columns sharing a window. scratch: per band, reused.
+  struct BandScratch {
+    std::vector<std::uint8_t> marks;
+    std::vector<int> d0, d1;
+  };
+  void removeRowsFast(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& remaining,
+                      cv::Mat& labels, std::vector<std::uint8_t>& changed_rows, int y0, int y1,
+                      BandScratch& scratch) const;
+
   RemovalParams params_;
+  std::vector<BandScratch> band_scratch_;
 };
 
 }  // namespace sg

@@ -189,6 +189,33 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
   }
 }
 
+[[gnu::always_inline]] inline void markImpl(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1,
+                                            int d0, int d1, int tol, std::uint8_t* marks) {
+  const U8x32 vtol = splat(tol);
+  const U8x32 vtop = splat(255 - tol);
+  const U8x32 one = splat(1);
+  const U8x32 zero{};
+  for (int d = d0; d <= d1; ++d) {
+    int x = std::max(x0, d);
+    for (; x + kLanes <= x1; x += kLanes) {
+      const U8x32 a = load(left + x);
+      const U8x32 b = load(right + x - d);
+      U8x32 lo = a > vtol ? a - vtol : zero;  // saturating a - tol, then at least 1
+      lo = lo < one ? one : lo;
+      const U8x32 hi = a > vtop ? splat(255) : a + vtol;  // saturating a + tol
+      const U8x32 m = matchMask(b, lo, hi - lo) & __builtin_convertvector(a != zero, U8x32);
+      U8x32 old = load(marks + x);
+      old |= m;
+      std::memcpy(marks + x, &old, sizeof(old));
+    }
+    for (; x < x1; ++x) {
+      const int a = left[x];
+      const int b = right[x - d];
+      if (a != 0 && b != 0 && std::abs(a - b) <= tol) marks[x] = 0xFF;
+    }
+  }
+}
+
 #if defined(__x86_64__) || defined(__i386__)
 #define SG_SIMD_X86 1
 [[gnu::target("avx2")]] void accumulateAvx2(const std::uint8_t* left, const std::uint8_t* skip,
@@ -204,7 +231,16 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
                                             int w, int thr, int r, std::uint8_t* scratch, std::uint8_t* out) {
   featureRowImpl(pm, p0, pp, w, thr, r, scratch, out);
 }
+[[gnu::target("avx2")]] void markAvx2(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d0,
+                                      int d1, int tol, std::uint8_t* marks) {
+  markImpl(left, right, x0, x1, d0, d1, tol, marks);
+}
 #endif
+
+void markBaseline(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d0, int d1, int tol,
+                  std::uint8_t* marks) {
+  markImpl(left, right, x0, x1, d0, d1, tol, marks);
+}
 
 void featureRowBaseline(const std::uint8_t* pm, const std::uint8_t* p0, const std::uint8_t* pp, int w, int thr, int r,
                         std::uint8_t* scratch, std::uint8_t* out) {
@@ -256,6 +292,14 @@ void featureRow(const std::uint8_t* pm, const std::uint8_t* p0, const std::uint8
   if (useAvx2()) return featureRowAvx2(pm, p0, pp, width, threshold, radius, scratch, out);
 #endif
   featureRowBaseline(pm, p0, pp, width, threshold, radius, scratch, out);
+}
+
+void markMatches(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d0, int d1,
+                 int grey_tolerance, std::uint8_t* marks) {
+#ifdef SG_SIMD_X86
+  if (useAvx2()) return markAvx2(left, right, x0, x1, d0, d1, grey_tolerance, marks);
+#endif
+  markBaseline(left, right, x0, x1, d0, d1, grey_tolerance, marks);
 }
 
 const char* kernelName() { return useAvx2() ? "avx2" : "baseline"; }

@@ -37,6 +37,12 @@ constexpr int featureScratchSize(int width, int radius) { return width + 2 * rad
 void featureRow(const std::uint8_t* pm, const std::uint8_t* p0, const std::uint8_t* pp, int width, int threshold,
                 int radius, std::uint8_t* scratch, std::uint8_t* out);
 
+// Removal (FeatureRemover): for x in [max(x0, d), x1) and every offset d in
+// [d0, d1] (d0 >= 0), sets marks[x] = 0xFF where left[x] != 0, right[x - d] != 0
+// and |left[x] - right[x - d]| <= grey_tolerance; other marks are left alone.
+void markMatches(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d0, int d1,
+                 int grey_tolerance, std::uint8_t* marks);
+
 // Name of the build in use ("avx2" or "baseline").
 const char* kernelName();
 

@@ -200,3 +200,86 @@ TEST(FastGround, WideRollSearchMatchesTheReference) {
 
 }  // namespace
 }  // namespace sg
+
+namespace sg {
+namespace {
+
+cv::Mat randomGrey(cv::Size size, cv::RNG& rng) {
+  cv::Mat m(size, CV_8UC1);
+  // Blocks of flat grey with noise: edges of every strength, runs of non-edges.
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      const int block = ((x / 9) * 31 + (y / 5) * 17) % 256;
+      m.at<std::uint8_t>(y, x) = cv::saturate_cast<std::uint8_t>(block + rng.uniform(-6, 7));
+    }
+  return m;
+}
+
+// Narrow images (shorter than a vector), every dilation radius class and thresholds from 1 to the maximum.
+TEST(FastFeatures, MatchTheReferenceForAnySizeRadiusAndThreshold) {
+  cv::RNG rng(7);
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(5, 3), cv::Size(17, 4), cv::Size(18, 2), cv::Size(33, 5),
+                              cv::Size(100, 7), cv::Size(301, 9)}) {
+    const cv::Mat grey = randomGrey(size, rng);
+    for (int radius : {0, 1, 2, 5, 32}) {
+      for (int threshold : {1, 48, 300, 2040}) {
+        SCOPED_TRACE(std::to_string(size.width) + "x" + std::to_string(size.height) + ", radius " +
+                     std::to_string(radius) + ", threshold " + std::to_string(threshold));
+        FeatureParams fp;
+        fp.dilation_half_width_px = radius;
+        fp.edge_threshold = threshold;
+        fp.band_rows = 2;
+        FeatureExtractor fx(fp);
+        cv::Mat a, b;
+        fx.computeReference(grey, a);
+        fx.compute(grey, b);
+        ASSERT_TRUE(test::sameBits(a, b));
+      }
+    }
+  }
+}
+
+// A transversal slope, unknown rows, offsets beyond the image width and
+// tolerances from 0 to the maximum: the removal's column windows and runs.
+TEST(FastRemoval, MatchesTheReferenceWithTransversalSlopeAndUnknownRows) {
+  cv::RNG rng(11);
+  const cv::Size size(301, 40);
+  FeatureExtractor fx;
+  cv::Mat lf, rf;
+  fx.computeReference(randomGrey(size, rng), lf);
+  fx.computeReference(randomGrey(size, rng), rf);
+  GroundProfile ground;
+  ground.source = GroundSource::kHough;
+  ground.horizon_row = 10;
+  ground.offset_per_row.resize(static_cast<std::size_t>(size.height));
+  for (int y = 0; y < size.height; ++y)
+    ground.offset_per_row[static_cast<std::size_t>(y)] = y < 10 ? 3.0f : 0.37f * static_cast<float>(y - 10) + 0.5f;
+  ground.offset_per_row[5] = GroundProfile::kUnknown;
+  ground.offset_per_row[20] = GroundProfile::kUnknown;
+  ground.offset_per_row[39] = 400.0f;  // wider than the image
+  for (float per_column : {0.0f, 0.013f, -0.05f, 0.5f}) {
+    for (int offset_tol : {0, 1, 3}) {
+      for (int grey_tol : {0, 12, 254}) {
+        SCOPED_TRACE("per column " + std::to_string(per_column) + ", offset tolerance " + std::to_string(offset_tol) +
+                     ", grey tolerance " + std::to_string(grey_tol));
+        ground.offset_per_column = per_column;
+        ground.reference_column = 100.5f;
+        RemovalParams rp;
+        rp.offset_tolerance_px = offset_tol;
+        rp.grey_tolerance = grey_tol;
+        rp.band_rows = 3;
+        FeatureRemover remover(rp);
+        cv::Mat rem_ref, lab_ref, rem, lab;
+        std::vector<std::uint8_t> ch_ref, ch;
+        remover.computeReference(lf, rf, ground, rem_ref, lab_ref, ch_ref);
+        remover.compute(lf, rf, ground, rem, lab, ch);
+        ASSERT_TRUE(test::sameBits(rem, rem_ref));
+        ASSERT_TRUE(test::sameBits(lab, lab_ref));
+        ASSERT_EQ(ch, ch_ref);
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace sg
