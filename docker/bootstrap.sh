@@ -4,9 +4,13 @@
 # configures and builds with ccache, then runs the main job or the tests.
 #
 #   bash docker/bootstrap.sh run [ARGS...]   the whole pipeline on synthetic scenes
-#   bash docker/bootstrap.sh test            the whole test suite
+#   bash docker/bootstrap.sh test            the whole test suite, then the unit and
+#                                            integration tests again under ASan+UBSan,
+#                                            then a short run of every fuzz target
 #
-# Environment: SG_BUILD_DIR (default build/), CI=true turns warnings into errors.
+# Environment: SG_BUILD_DIR (default build/), SG_ASAN_BUILD_DIR (build-asan/),
+# SG_FUZZ_BUILD_DIR (build-fuzz/), CI=true turns warnings into errors,
+# SG_SKIP_SANITIZERS=1 / SG_SKIP_FUZZ=1 leave those parts out.
 set -euo pipefail
 
 mode=${1:-run}
@@ -50,6 +54,36 @@ configure_and_build() {
   cmake --build "$build" -j "$jobs"
 }
 
+# Sanitizer tree: the unit and integration tests under ASan + UBSan (no
+# benchmarks, no browser test). Any sanitizer report fails the test that ran it.
+# Both trees hash paths relative to the clone (CCACHE_BASEDIR), so a fresh clone
+# anywhere reuses what another clone of the same sources compiled.
+sanitizer_tests() {
+  local dir=${SG_ASAN_BUILD_DIR:-$root/build-asan} werror=OFF
+  [ "${CI:-}" = true ] && werror=ON
+  say "configuring $dir (ASan + UBSan)"
+  cmake -S "$root" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSG_WERROR="$werror" -DSG_SANITIZE=ON \
+        -DSG_BUILD_BENCH=OFF
+  say "building the unit and integration tests with ASan + UBSan"
+  CCACHE_BASEDIR=$root CCACHE_NOHASHDIR=true cmake --build "$dir" -j "$jobs"
+  say "running the unit and integration tests under ASan + UBSan"
+  ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1} \
+  UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1} \
+    ctest --test-dir "$dir" -j "$jobs" -L 'unit|integration' --output-on-failure --timeout 600
+}
+
+# Fuzz tree (clang, libFuzzer): a short run of every target from its seeds.
+fuzz_smoke() {
+  local dir=${SG_FUZZ_BUILD_DIR:-$root/build-fuzz} werror=OFF
+  [ "${CI:-}" = true ] && werror=ON
+  say "configuring $dir (clang, libFuzzer)"
+  cmake -S "$root" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSG_WERROR="$werror" -DSG_FUZZ=ON \
+        -DSG_BUILD_BENCH=OFF -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14
+  CCACHE_BASEDIR=$root CCACHE_NOHASHDIR=true cmake --build "$dir" -j "$jobs" --target fuzz_targets
+  say "running every fuzz target for a short while"
+  ctest --test-dir "$dir" -j "$jobs" -L fuzz --output-on-failure --timeout 600
+}
+
 SG_CMAKE_ARGS=${SG_CMAKE_ARGS:-}
 install_packages
 case "$mode" in
@@ -62,7 +96,11 @@ case "$mode" in
     [ -f "$root/tests/browser/package.json" ] && install_browser_tooling
     configure_and_build
     say "running the tests"
-    ctest --test-dir "$build" -j "$jobs" --output-on-failure --timeout 600
+    status=0
+    ctest --test-dir "$build" -j "$jobs" --output-on-failure --timeout 600 || status=1
+    if [ "${SG_SKIP_SANITIZERS:-}" != 1 ]; then sanitizer_tests || status=1; fi
+    if [ "${SG_SKIP_FUZZ:-}" != 1 ]; then fuzz_smoke || status=1; fi
+    exit "$status"
     ;;
   *)
     echo "usage: bash docker/bootstrap.sh run|test" >&2

@@ -498,7 +498,11 @@ struct CameraInfo {
 };
 
 CameraInfo readCameraInfo(const std::string& path) {
-  const YamlDoc doc(path, readText(path));
+  const std::string text = readText(path);
+  if (const auto nul = text.find('\0'); nul != std::string::npos) {
+    fail(path, "NUL byte at offset " + std::to_string(nul) + ": not a text calibration file");
+  }
+  const YamlDoc doc(path, text);
   CameraInfo info;
   const char* required[] = {"image_width", "image_height", "camera_matrix", "distortion_coefficients",
                             "rectification_matrix", "projection_matrix"};
@@ -580,6 +584,11 @@ StereoCalibration loadCalibration(const std::string& path, cv::Size image_size) 
   }
 
   const std::string text = readText(path);
+  // OpenCV's FileStorage reads the text as a C string and crashes on some inputs
+  // with a NUL byte inside (found by tests/fuzz); no calibration format has one.
+  if (const auto nul = text.find('\0'); nul != std::string::npos) {
+    fail(path, "NUL byte at offset " + std::to_string(nul) + ": not a text calibration file");
+  }
   const std::string head = trim(text.substr(0, 64));
   const std::string ext = extensionLower(path);
   StereoCalibration calib;

@@ -69,7 +69,11 @@ void loadParams(const YAML::Node& node, P& params, const std::string& file, cons
   detail::YamlReader reader(node, file, prefix);
   params.visit(reader);
   reader.rejectUnknownKeys();
-  validateParams(params, prefix);
+  try {
+    validateParams(params, prefix);
+  } catch (const ParamError& e) {
+    throw ParamError(file + ": " + e.what());  // the range message names the key; add the file
+  }
 }
 
 // Parses a YAML file (ParamError naming the file and line on a syntax error)

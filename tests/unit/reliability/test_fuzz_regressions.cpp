@@ -47,9 +47,17 @@ TEST(FuzzRegressions, OpenCvMatrixRowsThatAreNotANumberAreRejected) {
 
 TEST(FuzzRegressions, OpenCvFileWhoseTopLevelIsNotAMappingIsRejected) {
   // cv::FileStorage::operator[] asserted (cv::Exception escaped the reader).
+  // The fuzzer's input also holds a NUL byte, which is now refused first; the same
+  // shape without it must meet the top-level check.
   const test::TempDir dir("fuzz_regression");
-  EXPECT_NE(opencvCalibrationError(dir, "calib_opencv-top-level-not-a-map").find("expected a mapping"),
-            std::string::npos);
+  EXPECT_NE(opencvCalibrationError(dir, "calib_opencv-top-level-not-a-map").find("NUL byte"), std::string::npos);
+  const std::string path = dir.write("sequence.yaml", "%YAML:1.0\n---\n- P1\n- 721.5\n");
+  try {
+    loadCalibration(path);
+    ADD_FAILURE() << "a top-level sequence was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), path + ": expected a mapping of calibration fields at the top level");
+  }
 }
 
 TEST(FuzzRegressions, OpenCvFileWithAnEmptyKeyIsRejected) {
@@ -57,6 +65,12 @@ TEST(FuzzRegressions, OpenCvFileWithAnEmptyKeyIsRejected) {
   const test::TempDir dir("fuzz_regression");
   EXPECT_NE(opencvCalibrationError(dir, "calib_opencv-empty-key").find("cannot parse the OpenCV calibration file"),
             std::string::npos);
+}
+
+TEST(FuzzRegressions, OpenCvXmlWithANulByteIsRejectedBeforeOpenCvParsesIt) {
+  // cv::FileStorage (OpenCV 4.6 XML parser) dereferenced a null pointer on this input.
+  const test::TempDir dir("fuzz_regression");
+  EXPECT_NE(opencvCalibrationError(dir, "calib_opencv-nul-byte").find("NUL byte at offset 11"), std::string::npos);
 }
 
 }  // namespace
