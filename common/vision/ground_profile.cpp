@@ -106,56 +106,66 @@ std::optional<GroundLine> GroundEstimator::houghFast(const std::vector<std::uint
       }
     slope_table_offsets_ = offsets;
   }
-  // Accumulator with a zero border of one bin and one slope on each side.
-  const std::size_t stride = static_cast<std::size_t>(n_bins) + 2;
-  padded_acc_.assign((static_cast<std::size_t>(n_slopes) + 2) * stride, 0.0f);
-  auto accRow = [&](int k) { return &padded_acc_[(static_cast<std::size_t>(k) + 1) * stride + 1]; };
+  // Accumulator stored bin-major (all slopes of one horizon bin side by side: the votes
+  // of one peak then land on neighbouring addresses), with a zero border of one bin
+  // and one slope on each side.
+  const int kstride = n_slopes + 2;
+  padded_acc_.assign(static_cast<std::size_t>(n_bins + 2) * static_cast<std::size_t>(kstride), 0.0f);
+  float* acc = padded_acc_.data() + kstride + 1;  // acc[b * kstride + k]
+  vote_bins_.resize(static_cast<std::size_t>(n_slopes));
+  int* bins = vote_bins_.data();
   bool any = false;
   for (std::size_t i = 0; i < peaks_.size(); ++i) {
     const Peak& p = peaks_[i];
     if (!use[i] || p.offset < 1 || p.offset >= offsets) continue;
     any = true;
-    const double* q = &slope_table_[static_cast<std::size_t>(p.offset) * static_cast<std::size_t>(n_slopes)];
+    const double* __restrict q = &slope_table_[static_cast<std::size_t>(p.offset) * static_cast<std::size_t>(n_slopes)];
     const double row = p.row;
     for (int k = 0; k < n_slopes; ++k) {
-      // std::lround(row - q[k]) without the library call: truncate, then round half away from zero
-      // (v - trunc(v) is exact for these magnitudes).
+      // std::lround(row - q[k]) without the library call: truncate, then round half away
+      // from zero (v - trunc(v) is exact for these magnitudes, |v| < 2^31 by the table's range).
       const double v = row - q[k];
-      long t = static_cast<long>(v);
+      int t = static_cast<int>(v);
       const double frac = v - static_cast<double>(t);
-      t += (frac >= 0.5) - (frac <= -0.5);
-      const long bin = t + rows;
+      t += (frac >= 0.5 ? 1 : 0) - (frac <= -0.5 ? 1 : 0);
+      bins[k] = t + rows;
+    }
+    for (int k = 0; k < n_slopes; ++k) {
+      const int bin = bins[k];
       if (bin < 0 || bin >= n_bins) continue;
-      accRow(k)[bin] += p.weight;
+      acc[static_cast<std::ptrdiff_t>(bin) * kstride + k] += p.weight;
     }
   }
   if (!any) return std::nullopt;
-  // 3x3 sums in the reference's order (rows k-1, k, k+1; bins b-1, b, b+1); the zero
-  // border adds +0.0f where the reference skips a term, which leaves a sum unchanged.
-  window_sums_.resize(static_cast<std::size_t>(n_bins));
+  // 3x3 sums in the reference's order (slopes k-1, k, k+1; bins b-1, b, b+1); the
+  // zero border adds +0.0f where the reference skips a term, which leaves a sum
+  // unchanged. The reference keeps the first maximum in slope-major order: here
+  // (bin-major) a tie goes to the smaller slope, then the smaller bin.
+  window_sums_.resize(static_cast<std::size_t>(n_slopes));
   float best = 0.0f;
   int best_k = -1, best_b = -1;
-  for (int k = 0; k < n_slopes; ++k) {
-    const float* __restrict a = accRow(k - 1);
-    const float* __restrict c = accRow(k);
-    const float* __restrict e = accRow(k + 1);
+  for (int b = 0; b < n_bins; ++b) {
+    const float* __restrict lo = acc + static_cast<std::ptrdiff_t>(b - 1) * kstride;
+    const float* __restrict mid = acc + static_cast<std::ptrdiff_t>(b) * kstride;
+    const float* __restrict hi = acc + static_cast<std::ptrdiff_t>(b + 1) * kstride;
     float* __restrict out = window_sums_.data();
-    for (int b = 0; b < n_bins; ++b) {
+    for (int k = 0; k < n_slopes; ++k) {
       float sum = 0.0f;
-      sum += a[b - 1];
-      sum += a[b];
-      sum += a[b + 1];
-      sum += c[b - 1];
-      sum += c[b];
-      sum += c[b + 1];
-      sum += e[b - 1];
-      sum += e[b];
-      sum += e[b + 1];
-      out[b] = sum;
+      sum += lo[k - 1];
+      sum += mid[k - 1];
+      sum += hi[k - 1];
+      sum += lo[k];
+      sum += mid[k];
+      sum += hi[k];
+      sum += lo[k + 1];
+      sum += mid[k + 1];
+      sum += hi[k + 1];
+      out[k] = sum;
     }
-    for (int b = 0; b < n_bins; ++b) {
-      if (out[b] > best) {
-        best = out[b];
+    for (int k = 0; k < n_slopes; ++k) {
+      const float v = out[k];
+      if (v > best || (v == best && best_k >= 0 && k < best_k)) {
+        best = v;
         best_k = k;
         best_b = b;
       }

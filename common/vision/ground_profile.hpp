@@ -137,7 +137,8 @@ class GroundEstimator {
   std::vector<double> slope_table_;     // offset / slope, offsets x slopes (for the offsets it was built for)
   int slope_table_offsets_ = 0;
   std::vector<float> padded_acc_;       // Hough accumulator with a zero border
-  std::vector<float> window_sums_;      // 3x3 sums of one slope row
+  std::vector<float> window_sums_;      // 3x3 sums of one horizon bin
+  std::vector<int> vote_bins_;          // horizon bin of one peak per slope
   std::vector<float> background_sums_;
   std::vector<double> roll_sorted_;
   std::vector<std::uint8_t> roll_right_;  // padded right row

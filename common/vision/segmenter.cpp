@@ -29,11 +29,16 @@ void Segmenter::reset() {
 
 void Segmenter::compute(const cv::Mat& left_features, const cv::Mat& right_features, const StereoRig& rig,
                         SegmentationResult& out) {
+  out.timing_ms.erase("features");
+  run(left_features, right_features, rig, out);
+}
+
+void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features, const StereoRig& rig,
+                    SegmentationResult& out) {
   if (left_features.empty() || left_features.type() != CV_8UC1 || right_features.type() != CV_8UC1 ||
       left_features.size() != right_features.size())
     throw InputError("segmentation: feature images must be non-empty mono8 of the same size");
   const auto start = Clock::now();
-  out.timing_ms.erase("features");
   // segmentPair computes the features straight into `out`: no copy then.
   if (left_features.data != out.left_features.data) left_features.copyTo(out.left_features);
   if (right_features.data != out.right_features.data) right_features.copyTo(out.right_features);
@@ -96,7 +101,7 @@ void segmentPair(FeatureExtractor& features, Segmenter& segmenter, const cv::Mat
     features.computeReference(right, out.right_features);
   }
   const double features_ms = msSince(start);
-  segmenter.compute(out.left_features, out.right_features, rig, out);
+  segmenter.run(out.left_features, out.right_features, rig, out);
   out.timing_ms["features"] = features_ms;
   out.timing_ms["total"] = msSince(start);
 }

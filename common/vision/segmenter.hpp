@@ -56,6 +56,13 @@ class Segmenter {
   const SegmenterParams& params() const { return params_; }
 
  private:
+  friend void segmentPair(FeatureExtractor&, Segmenter&, const cv::Mat&, const cv::Mat&, const StereoRig&,
+                          SegmentationResult&);
+  // compute() without touching timing_ms["features"] (segmentPair sets it: no map node
+  // is erased and re-created per frame).
+  void run(const cv::Mat& left_features, const cv::Mat& right_features, const StereoRig& rig,
+           SegmentationResult& out);
+
   SegmenterParams params_;
   Correlator correlator_;
   GroundEstimator ground_;

@@ -1,0 +1,232 @@
+// No heap allocation per frame in steady state: this executable replaces the
+// global operator new/delete and the C allocation functions (cv::Mat buffers
+// and TBB's task memory come from malloc/posix_memalign, not operator new)
+// with counting versions, runs a few warm-up frames through each stage, then
+// asserts that the next frames allocate nothing, on 1 and 2 TBB threads.
+#include <atomic>
+#include <cerrno>
+#include <cstdlib>
+#include <functional>
+#include <memory>
+#include <new>
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include "test_helpers.hpp"
+#include "vision/detector.hpp"
+#include "vision/segmenter.hpp"
+
+namespace {
+
+std::atomic<long> g_allocations{0};
+std::atomic<bool> g_counting{false};
+std::atomic<const void*> g_sink{nullptr};  // keeps the probe's allocation observable
+
+void noteAllocation() {
+  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
+}
+
+}  // namespace
+
+// glibc's own implementations, which the replacements below forward to.
+extern "C" {
+void* __libc_malloc(std::size_t size);
+void __libc_free(void* p);
+void* __libc_calloc(std::size_t n, std::size_t size);
+void* __libc_realloc(void* p, std::size_t size);
+void* __libc_memalign(std::size_t alignment, std::size_t size);
+
+void* malloc(std::size_t size) noexcept {
+  noteAllocation();
+  return __libc_malloc(size);
+}
+void free(void* p) noexcept { __libc_free(p); }
+void* calloc(std::size_t n, std::size_t size) noexcept {
+  noteAllocation();
+  return __libc_calloc(n, size);
+}
+void* realloc(void* p, std::size_t size) noexcept {
+  noteAllocation();
+  return __libc_realloc(p, size);
+}
+int posix_memalign(void** out, std::size_t alignment, std::size_t size) noexcept {
+  noteAllocation();
+  void* p = __libc_memalign(alignment, size);
+  if (p == nullptr) return ENOMEM;
+  *out = p;
+  return 0;
+}
+void* aligned_alloc(std::size_t alignment, std::size_t size) noexcept {
+  noteAllocation();
+  return __libc_memalign(alignment, size);
+}
+void* memalign(std::size_t alignment, std::size_t size) noexcept {
+  noteAllocation();
+  return __libc_memalign(alignment, size);
+}
+}  // extern "C"
+
+namespace {
+void* countedNew(std::size_t size) {
+  noteAllocation();
+  if (void* p = __libc_malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void* countedNewAligned(std::size_t size, std::align_val_t alignment) {
+  noteAllocation();
+  if (void* p = __libc_memalign(static_cast<std::size_t>(alignment), size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+}  // namespace
+
+void* operator new(std::size_t size) { return countedNew(size); }
+void* operator new[](std::size_t size) { return countedNew(size); }
+void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
+  noteAllocation();
+  return __libc_malloc(size == 0 ? 1 : size);
+}
+void* operator new[](std::size_t size, const std::nothrow_t&) noexcept {
+  noteAllocation();
+  return __libc_malloc(size == 0 ? 1 : size);
+}
+void* operator new(std::size_t size, std::align_val_t alignment) { return countedNewAligned(size, alignment); }
+void* operator new[](std::size_t size, std::align_val_t alignment) { return countedNewAligned(size, alignment); }
+void operator delete(void* p) noexcept { __libc_free(p); }
+void operator delete[](void* p) noexcept { __libc_free(p); }
+void operator delete(void* p, std::size_t) noexcept { __libc_free(p); }
+void operator delete[](void* p, std::size_t) noexcept { __libc_free(p); }
+void operator delete(void* p, std::align_val_t) noexcept { __libc_free(p); }
+void operator delete[](void* p, std::align_val_t) noexcept { __libc_free(p); }
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept { __libc_free(p); }
+void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { __libc_free(p); }
+
+namespace sg {
+namespace {
+
+struct Frame {
+  cv::Mat left, right;
+  StereoRig rig;
+};
+
+std::vector<Frame> frames() {
+  // One camera: frames of one size (the KITTI sequences differ by a few pixels,
+  // and a new size rightly resizes every image).
+  std::vector<Frame> out;
+  for (const test::RealPair& r : test::loadKittiRigPairs()) {
+    if (!out.empty() && r.left.size() != out.front().left.size()) continue;
+    out.push_back({r.left, r.right, r.rig});
+    if (out.size() >= 3) break;
+  }
+  return out;
+}
+
+// Allocations made by `frame(i)` for frames warm-up .. warm-up + measured - 1, after
+// `warm_up` frames that are not counted. Frames cycle over `count` inputs.
+long allocationsInSteadyState(int count, const std::function<void(int)>& frame) {
+  const int warm_up = 2 * count;
+  for (int i = 0; i < warm_up; ++i) frame(i % count);
+  g_allocations.store(0);
+  g_counting.store(true);
+  for (int i = 0; i < 2 * count; ++i) frame(i % count);
+  g_counting.store(false);
+  return g_allocations.load();
+}
+
+class NoAllocation : public ::testing::TestWithParam<int> {
+ protected:
+  void SetUp() override {
+    all_ = frames();
+    ASSERT_GE(all_.size(), 2u) << "no real pairs found under " << SG_SHARED_DATA_DIR;
+    // The counter itself works: a vector that grows allocates.
+    const long probe = allocationsInSteadyState(1, [](int) {
+      auto v = std::make_unique<std::vector<int>>(1000);
+      g_sink.store(v->data());
+    });
+    ASSERT_GT(probe, 0) << "the counting allocator is not in use";
+  }
+  std::vector<Frame> all_;
+};
+
+TEST_P(NoAllocation, FastStagesAllocateNothingPerFrame) {
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(GetParam()));
+  const int n = static_cast<int>(all_.size());
+  // Per frame inputs of the later stages, computed once outside the counted frames.
+  std::vector<cv::Mat> lf(all_.size()), rf(all_.size()), score(all_.size()), matches(all_.size());
+  std::vector<GroundProfile> ground(all_.size());
+  std::vector<cv::Mat> remaining(all_.size());
+  std::vector<std::vector<std::uint8_t>> changed(all_.size());
+  {
+    FeatureExtractor fx;
+    Correlator corr;
+    GroundEstimator g;
+    FeatureRemover remover;
+    cv::Mat labels;
+    for (std::size_t i = 0; i < all_.size(); ++i) {
+      fx.compute(all_[i].left, lf[i]);
+      fx.compute(all_[i].right, rf[i]);
+      corr.compute(lf[i], rf[i], score[i], matches[i]);
+      g.compute(score[i], all_[i].rig, nullptr, 0, ground[i]);
+      g.estimateRoll(lf[i], rf[i], all_[i].rig, ground[i]);
+      remover.compute(lf[i], rf[i], ground[i], remaining[i], labels, changed[i]);
+    }
+  }
+
+  FeatureExtractor fx;
+  cv::Mat out_l, out_r;
+  EXPECT_EQ(0, allocationsInSteadyState(n, [&](int i) {
+              fx.compute(all_[static_cast<std::size_t>(i)].left, out_l);
+              fx.compute(all_[static_cast<std::size_t>(i)].right, out_r);
+            }))
+      << "feature images";
+
+  Correlator corr;
+  cv::Mat s, m;
+  EXPECT_EQ(0, allocationsInSteadyState(n, [&](int i) {
+              corr.compute(lf[static_cast<std::size_t>(i)], rf[static_cast<std::size_t>(i)], s, m);
+            }))
+      << "correlation";
+
+  GroundEstimator g;
+  GroundProfile profile;
+  EXPECT_EQ(0, allocationsInSteadyState(n, [&](int i) {
+              const auto k = static_cast<std::size_t>(i);
+              g.compute(score[k], all_[k].rig, nullptr, 0, profile);
+              g.estimateRoll(lf[k], rf[k], all_[k].rig, profile);
+            }))
+      << "ground and transversal slope";
+
+  FeatureRemover remover;
+  cv::Mat rem, lab;
+  std::vector<std::uint8_t> rows;
+  EXPECT_EQ(0, allocationsInSteadyState(n, [&](int i) {
+              const auto k = static_cast<std::size_t>(i);
+              remover.compute(lf[k], rf[k], ground[k], rem, lab, rows);
+            }))
+      << "removal";
+
+  EXPECT_EQ(0, allocationsInSteadyState(n, [&](int i) {
+              const auto k = static_cast<std::size_t>(i);
+              score[k].copyTo(s);
+              matches[k].copyTo(m);
+              corr.updateRows(lf[k], remaining[k], rf[k], changed[k], s, m);
+            }))
+      << "correlation after removal";
+}
+
+TEST_P(NoAllocation, WholeSegmentationAllocatesNothingPerFrame) {
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(GetParam()));
+  FeatureExtractor fx;
+  Segmenter seg;
+  SegmentationResult r;
+  const long count = allocationsInSteadyState(static_cast<int>(all_.size()), [&](int i) {
+    const Frame& f = all_[static_cast<std::size_t>(i)];
+    segmentPair(fx, seg, f.left, f.right, f.rig, r);
+  });
+  EXPECT_EQ(0, count) << "segmentPair (features, correlation, ground, removal, obstacles)";
+}
+
+INSTANTIATE_TEST_SUITE_P(Threads, NoAllocation, ::testing::Values(1, 2));
+
+}  // namespace
+}  // namespace sg
