@@ -60,6 +60,7 @@ void SymmetryScanner::prepare(const cv::Mat& grey, const cv::Mat& weights) {
     throw InputError("symmetry: grey (CV_8UC1) and weights (CV_32FC1) must have the same size");
   }
   grey.convertTo(grey_f_, CV_64F);
+  grey.copyTo(grey_u8_);
   weights.copyTo(weights_);
   // Horizontal max filter: the mirror side tolerates a few pixels of asymmetry.
   const int tol = params_.mirror_tolerance_px;
@@ -87,6 +88,91 @@ void SymmetryScanner::prepare(const cv::Mat& grey, const cv::Mat& weights) {
 }
 
 void SymmetryScanner::buildAxis(int axis, int max_half, int rows) {
+  // Each table is a 2-D prefix sum over half-widths k and rows r:
+  //   t(k, r + 1) = ((t(k, r) + t(k - 1, r + 1)) - t(k - 1, r)) + v(k, r).
+  // The grey tables hold integers far below 2^53: their doubles are exact whatever the
+  // order, so they are summed as integers. The edge tables keep the reference's
+  // floating-point order; updates on the anti-diagonal k + r of a strip of kStrip rows
+  // do not depend on each other, which hides the adder latency.
+  const cv::Size size(rows + 1, max_half + 1);
+  for (cv::Mat* t : {&pe_, &pm_, &pa_, &pb_, &paa_, &pbb_, &pab_}) {
+    t->create(size, CV_64FC1);
+    t->row(0).setTo(0.0);
+  }
+  auto rowOf = [&](cv::Mat& t, int k) { return t.ptr<double>(k); };
+  for (int k = 1; k <= max_half; ++k)
+    for (cv::Mat* t : {&pe_, &pm_, &pa_, &pb_, &paa_, &pbb_, &pab_}) t->ptr<double>(k)[0] = 0.0;
+
+  // Grey tables: column sums down to each row, accumulated over k, as 64-bit integers.
+  {
+    for (int k = 1; k <= max_half; ++k) {
+      const int cl = axis - k;
+      const int cr = axis + k;
+      double* ta = rowOf(pa_, k);
+      double* tb = rowOf(pb_, k);
+      double* taa = rowOf(paa_, k);
+      double* tbb = rowOf(pbb_, k);
+      double* tab = rowOf(pab_, k);
+      const double* ua = rowOf(pa_, k - 1);
+      const double* ub = rowOf(pb_, k - 1);
+      const double* uaa = rowOf(paa_, k - 1);
+      const double* ubb = rowOf(pbb_, k - 1);
+      const double* uab = rowOf(pab_, k - 1);
+      std::int64_t sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;  // column sums of rows < r + 1
+      for (int r = 0; r < rows; ++r) {
+        const std::uint8_t* g = grey_u8_.ptr<std::uint8_t>(r);
+        const std::int64_t a = g[cl];
+        const std::int64_t b = g[cr];
+        sa += a;
+        sb += b;
+        saa += a * a;
+        sbb += b * b;
+        sab += a * b;
+        // t(k, r + 1) = t(k - 1, r + 1) + column k summed over rows <= r (exact integers).
+        const auto at = static_cast<std::size_t>(r) + 1;
+        ta[at] = ua[at] + static_cast<double>(sa);
+        tb[at] = ub[at] + static_cast<double>(sb);
+        taa[at] = uaa[at] + static_cast<double>(saa);
+        tbb[at] = ubb[at] + static_cast<double>(sbb);
+        tab[at] = uab[at] + static_cast<double>(sab);
+      }
+    }
+  }
+
+  // Edge tables, the reference's order of operations on skewed strips of kStrip rows of k.
+  constexpr int kStrip = 4;
+  for (int k0 = 1; k0 <= max_half; k0 += kStrip) {
+    const int kn = std::min(kStrip, max_half - k0 + 1);
+    double* te[kStrip];
+    double* tm[kStrip];
+    for (int j = 0; j < kn; ++j) {
+      te[j] = rowOf(pe_, k0 + j);
+      tm[j] = rowOf(pm_, k0 + j);
+    }
+    const double* pe_prev = rowOf(pe_, k0 - 1);
+    const double* pm_prev = rowOf(pm_, k0 - 1);
+    for (int step = 0; step < rows + kn - 1; ++step) {
+      for (int j = 0; j < kStrip; ++j) {
+        const int r = step - j;
+        if (j >= kn || r < 0 || r >= rows) continue;
+        const int k = k0 + j;
+        const float* w = weights_.ptr<float>(r);
+        const float* m = mirror_.ptr<float>(r);
+        const double wlv = w[axis - k];
+        const double wrv = w[axis + k];
+        const double mlv = m[axis - k];
+        const double mrv = m[axis + k];
+        const double* ue = j == 0 ? pe_prev : te[j - 1];
+        const double* um = j == 0 ? pm_prev : tm[j - 1];
+        const auto at = static_cast<std::size_t>(r);
+        te[j][at + 1] = te[j][at] + ue[at + 1] - ue[at] + 0.5 * (wlv + wrv);
+        tm[j][at + 1] = tm[j][at] + um[at + 1] - um[at] + 0.5 * (wlv * mrv + mlv * wrv);
+      }
+    }
+  }
+}
+
+void SymmetryScanner::buildAxisReference(int axis, int max_half, int rows) {
   const cv::Size size(rows + 1, max_half + 1);
   for (cv::Mat* t : {&pe_, &pm_, &pa_, &pb_, &paa_, &pbb_, &pab_}) {
     t->create(size, CV_64FC1);
@@ -180,6 +266,16 @@ SymmetryCandidate SymmetryScanner::evaluate(int axis, int half, int top, int bot
 
 void SymmetryScanner::compute(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
                               std::vector<SymmetryCandidate>& out) {
+  computeImpl(grey, weights, search, out, false);
+}
+
+void SymmetryScanner::computeReference(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
+                                       std::vector<SymmetryCandidate>& out) {
+  computeImpl(grey, weights, search, out, true);
+}
+
+void SymmetryScanner::computeImpl(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
+                                  std::vector<SymmetryCandidate>& out, bool reference) {
   out.clear();
   prepare(grey, weights);
   const int cols = grey.cols;
@@ -189,7 +285,8 @@ void SymmetryScanner::compute(const cv::Mat& grey, const cv::Mat& weights, const
   for (int axis = kmin; axis + kmin < cols; axis += params_.axis_step_px) {
     const int kmax = std::min({search.max_half_width_px, axis, cols - 1 - axis});
     if (kmax < kmin) continue;
-    buildAxis(axis, kmax, rows);
+    if (reference) buildAxisReference(axis, kmax, rows);
+    else buildAxis(axis, kmax, rows);
     SymmetryCandidate best;
     bool found = false;
     for (int k = kmin; k <= kmax; k += params_.width_step_px) {

@@ -91,6 +91,12 @@ class SymmetryScanner {
   void compute(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
                std::vector<SymmetryCandidate>& out);
 
+  // Same with the serial reference tables (one dependent chain per table); compute()
+  // builds them with independent chains interleaved and integer sums for the grey
+  // tables, bit-identical.
+  void computeReference(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
+                        std::vector<SymmetryCandidate>& out);
+
   // Symmetry measures of one box (relative to the region), for tests and tools.
   SymmetryCandidate measure(const cv::Mat& grey, const cv::Mat& weights, int axis_col, int half_width, int top,
                             int bottom);
@@ -99,7 +105,10 @@ class SymmetryScanner {
 
  private:
   void prepare(const cv::Mat& grey, const cv::Mat& weights);
+  void computeImpl(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
+                   std::vector<SymmetryCandidate>& out, bool reference);
   void buildAxis(int axis, int max_half, int rows);
+  void buildAxisReference(int axis, int max_half, int rows);
   SymmetryCandidate evaluate(int axis, int half, int top, int bottom) const;
   int findTop(int x0, int x1, int bottom) const;
 
@@ -113,6 +122,7 @@ class SymmetryScanner {
   cv::Mat col_nonzero_;   // CV_32S (rows+1) x cols: per column, count of edge pixels above row
   // Per-axis prefix tables, (max_half+1) x (rows+1), summed over j <= k and rows < r.
   cv::Mat pe_, pm_, pa_, pb_, paa_, pbb_, pab_;
+  cv::Mat grey_u8_;  // the region's grey levels (integer tables)
 };
 
 }  // namespace sg
