@@ -91,16 +91,19 @@ void Correlator::correlateRowFast(const cv::Mat& left, const cv::Mat* before, co
   const std::uint8_t* b = before != nullptr ? before->ptr<std::uint8_t>(y) : nullptr;
   int n_removed = 0, b0 = w, b1 = 0;
   if (b != nullptr) {
+    // Branch-free passes (vectorised): a pixel that is not `before` or 0 means the row is not a removal.
+    int not_removal = 0;
     for (int x = 0; x < w; ++x) {
-      if (l[x] != 0 && l[x] != b[x]) {
-        b = nullptr;  // not a removal: recompute the row
-        break;
-      }
-      if (b[x] != 0 && l[x] == 0) {
-        ++n_removed;
-        b0 = std::min(b0, x);
-        b1 = x + 1;
-      }
+      not_removal |= (l[x] != 0) & (l[x] != b[x]);
+      n_removed += (b[x] != 0) & (l[x] == 0);
+    }
+    if (not_removal != 0) {
+      b = nullptr;  // recompute the row
+    } else if (n_removed > 0) {
+      b0 = 0;
+      while (!(b[b0] != 0 && l[b0] == 0)) ++b0;
+      b1 = w;
+      while (!(b[b1 - 1] != 0 && l[b1 - 1] == 0)) --b1;
     }
   }
   if (b == nullptr || n_removed > 0) {

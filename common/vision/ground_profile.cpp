@@ -30,14 +30,18 @@ void GroundEstimator::findPeaks(const cv::Mat& score) {
       if (left_ok && right_ok && s[d] >= floor) row_peaks.push_back(Peak{y, d, s[d]});
     }
     // Strongest first; ties keep the smaller offset (stable sort on a deterministic order).
-    // (Insertion sort: stable like std::stable_sort, without its temporary buffer.)
-    for (std::size_t i = 1; i < row_peaks.size(); ++i) {
-      const Peak p = row_peaks[i];
-      std::size_t j = i;
-      for (; j > 0 && p.weight > row_peaks[j - 1].weight; --j) row_peaks[j] = row_peaks[j - 1];
-      row_peaks[j] = p;
-    }
+    // The first `keep` of a stable sort, by repeated selection: the strongest remaining
+    // peak, the earliest of equals (no temporary buffer, linear in the row's peaks).
     const std::size_t keep = std::min(row_peaks.size(), static_cast<std::size_t>(params_.max_peaks_per_row));
+    for (std::size_t t = 0; t < keep; ++t) {
+      std::size_t best = t;
+      for (std::size_t i = t + 1; i < row_peaks.size(); ++i)
+        if (row_peaks[i].weight > row_peaks[best].weight) best = i;
+      // Move it to position t keeping the order of the others (stability of the rest).
+      const Peak p = row_peaks[best];
+      for (std::size_t i = best; i > t; --i) row_peaks[i] = row_peaks[i - 1];
+      row_peaks[t] = p;
+    }
     peaks_.insert(peaks_.end(), row_peaks.begin(), row_peaks.begin() + static_cast<std::ptrdiff_t>(keep));
   }
   row_peak_begin_[static_cast<std::size_t>(score.rows)] = static_cast<int>(peaks_.size());
@@ -121,16 +125,36 @@ std::optional<GroundLine> GroundEstimator::houghFast(const std::vector<std::uint
     any = true;
     const double* __restrict q = &slope_table_[static_cast<std::size_t>(p.offset) * static_cast<std::size_t>(n_slopes)];
     const double row = p.row;
-    for (int k = 0; k < n_slopes; ++k) {
-      // std::lround(row - q[k]) without the library call: truncate, then round half away
-      // from zero (v - trunc(v) is exact for these magnitudes, |v| < 2^31 by the table's range).
+    // std::lround(row - q[k]) without the library call: truncate, then round half away
+    // from zero (v - trunc(v) is exact for these magnitudes, |v| < 2^31 by the table's range).
+    int k = 0;
+    {
+      typedef double F64x4 __attribute__((vector_size(32)));
+      typedef std::int32_t I32x4 __attribute__((vector_size(16)));
+      const F64x4 vrow = F64x4{} + row;
+      const F64x4 half = F64x4{} + 0.5;
+      const I32x4 vrows = I32x4{} + rows;
+      for (; k + 4 <= n_slopes; k += 4) {
+        F64x4 qk;
+        std::memcpy(&qk, q + k, sizeof(qk));
+        const F64x4 v = vrow - qk;
+        const I32x4 t = __builtin_convertvector(v, I32x4);
+        const F64x4 frac = v - __builtin_convertvector(t, F64x4);
+        // Comparison masks are -1 / 0: subtracting the first adds 1, adding the second subtracts 1.
+        const I32x4 up = __builtin_convertvector(frac >= half, I32x4);
+        const I32x4 down = __builtin_convertvector(frac <= -half, I32x4);
+        const I32x4 b = t - up + down + vrows;
+        std::memcpy(bins + k, &b, sizeof(b));
+      }
+    }
+    for (; k < n_slopes; ++k) {
       const double v = row - q[k];
       int t = static_cast<int>(v);
       const double frac = v - static_cast<double>(t);
       t += (frac >= 0.5 ? 1 : 0) - (frac <= -0.5 ? 1 : 0);
       bins[k] = t + rows;
     }
-    for (int k = 0; k < n_slopes; ++k) {
+    for (k = 0; k < n_slopes; ++k) {
       const int bin = bins[k];
       if (bin < 0 || bin >= n_bins) continue;
       acc[static_cast<std::ptrdiff_t>(bin) * kstride + k] += p.weight;
@@ -162,6 +186,24 @@ std::optional<GroundLine> GroundEstimator::houghFast(const std::vector<std::uint
       sum += hi[k + 1];
       out[k] = sum;
     }
+    // Largest sum of this bin first (exact: a maximum does not round); most bins
+    // cannot change the best and are not scanned.
+    float row_max = 0.0f;
+    {
+      typedef float F32x4 __attribute__((vector_size(16)));
+      F32x4 m{};
+      int k = 0;
+      for (; k + 4 <= n_slopes; k += 4) {
+        F32x4 v;
+        std::memcpy(&v, out + k, sizeof(v));
+        m = v > m ? v : m;
+      }
+      float lanes[4];
+      std::memcpy(lanes, &m, sizeof(lanes));
+      row_max = std::max(std::max(lanes[0], lanes[1]), std::max(lanes[2], lanes[3]));
+      for (; k < n_slopes; ++k) row_max = std::max(row_max, out[k]);
+    }
+    if (row_max < best || row_max <= 0.0f) continue;
     for (int k = 0; k < n_slopes; ++k) {
       const float v = out[k];
       if (v > best || (v == best && best_k >= 0 && k < best_k)) {
