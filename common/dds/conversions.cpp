@@ -2,6 +2,7 @@
 
 #include <time.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <sstream>
@@ -291,11 +292,46 @@ void SegmentationEncoder::fill(const SegmentationData& data, sg_idl_Segmentation
   borrow(out.labels.run_length, run_length_.data(), run_length_.size());
 
   fillTiming(r.timing_ms, timing_, out.timing);
+
+  const cv::Mat& c = data.correlation;
+  if (c.empty()) {
+    out.correlation.rows = 0;
+    out.correlation.offsets = 0;
+    borrow(out.correlation.score, static_cast<const std::uint8_t*>(nullptr), 0);
+  } else {
+    if (c.type() != CV_8UC1 || !c.isContinuous() || c.rows != data.rig.height || c.cols < 1 ||
+        static_cast<std::uint32_t>(c.cols) > kMaxCorrelationOffsets) {
+      throw InputError("correlation image must be a continuous CV_8UC1 of " + str(data.rig.height) +
+                       " rows x 1.." + str(kMaxCorrelationOffsets) + " offsets, got " + str(c.rows) + "x" +
+                       str(c.cols) + " type " + str(c.type()));
+    }
+    out.correlation.rows = static_cast<std::uint32_t>(c.rows);
+    out.correlation.offsets = static_cast<std::uint32_t>(c.cols);
+    borrow(out.correlation.score, c.ptr<std::uint8_t>(), c.total());
+  }
+}
+
+void quantizeCorrelation(const cv::Mat& score, cv::Mat& out) {
+  if (score.empty()) {
+    out.release();
+    return;
+  }
+  if (score.type() != CV_32FC1) throw InputError("correlation scores must be CV_32F, got type " + str(score.type()));
+  out.create(score.size(), CV_8UC1);
+  for (int y = 0; y < score.rows; ++y) {
+    const float* in = score.ptr<float>(y);
+    std::uint8_t* dst = out.ptr<std::uint8_t>(y);
+    for (int x = 0; x < score.cols; ++x) {
+      const float v = std::isfinite(in[x]) ? std::clamp(in[x], 0.0f, 1.0f) : 0.0f;
+      dst[x] = static_cast<std::uint8_t>(std::lround(v * 255.0f));
+    }
+  }
 }
 
 void readSegmentation(const sg_idl_Segmentation& in, SegmentationData& out) {
   out.info = readHeader(in.header);
   out.result = SegmentationResult{};
+  out.correlation.release();
   if (!out.info.payload_valid) return;
   const std::string what = sampleName("Segmentation", out.info);
   out.rig = readRig(in.rig, in.width, in.height, what);
@@ -384,6 +420,26 @@ void readSegmentation(const sg_idl_Segmentation& in, SegmentationData& out) {
                  what);
   }
   readTiming(in.timing, out.result.timing_ms, what);
+
+  // Correlation image (may be absent: 0 x 0).
+  const sg_idl_CorrelationImage& c = in.correlation;
+  if (c.rows == 0 && c.offsets == 0 && c.score._length == 0) {
+    out.correlation.release();
+  } else {
+    if (c.rows != in.height) {
+      fail(what, "correlation.rows", "= " + str(c.rows) + " differs from the frame height " + str(in.height));
+    }
+    if (c.offsets == 0 || c.offsets > kMaxCorrelationOffsets) {
+      fail(what, "correlation.offsets", "= " + str(c.offsets) + " is not within 1.." + str(kMaxCorrelationOffsets));
+    }
+    const std::uint64_t expected = std::uint64_t{c.rows} * c.offsets;
+    if (c.score._length != expected || c.score._buffer == nullptr) {
+      fail(what, "correlation.score", "has " + str(c.score._length) + " bytes but rows*offsets = " + str(c.rows) +
+                                          "*" + str(c.offsets) + " = " + str(expected));
+    }
+    out.correlation.create(static_cast<int>(c.rows), static_cast<int>(c.offsets), CV_8UC1);
+    std::memcpy(out.correlation.data, c.score._buffer, c.score._length);
+  }
 }
 
 void DetectionsEncoder::fill(const DetectionsData& data, sg_idl_HumanDetections& out) {

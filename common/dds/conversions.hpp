@@ -64,13 +64,24 @@ struct FeatureFrameData {
 void fillFeatureFrame(const FeatureFrameData& data, sg_idl_FeatureFrame& out);
 void readFeatureFrame(const sg_idl_FeatureFrame& in, FeatureFrameData& out);
 
-// Segmentation as transmitted: ground polyline, obstacles, label image and
-// timing. The feature and correlation images stay in the segmentation stage.
+// Segmentation as transmitted: ground polyline, obstacles, label image,
+// timing and (optionally) the correlation image. The feature images and the
+// float correlation images of `result` stay in the segmentation stage.
 struct SegmentationData {
   FrameInfo info;
   StereoRig rig;
   SegmentationResult result;
+  // Correlation image before removal as sent: CV_8UC1, height x offsets,
+  // round(255 * score); empty when not sent (quantizeCorrelation()).
+  cv::Mat correlation;
 };
+
+// Largest number of offsets a correlation image may declare (CorrelationParams::offsets).
+inline constexpr std::uint32_t kMaxCorrelationOffsets = 1024;
+
+// CV_32F correlation scores in [0, 1] -> CV_8UC1 round(255 * score), clamped.
+// An empty input gives an empty output. Throws InputError for another type.
+void quantizeCorrelation(const cv::Mat& score, cv::Mat& out);
 
 class SegmentationEncoder {
  public:

@@ -8,6 +8,8 @@
 //   malformed         the sample failed validation (dds/conversions.hpp)
 //   processing_error  the core threw on this frame
 //   join_timeout      localization: the matching grey frame never arrived
+//   join_evicted      localization: the grey frame arrived but left the bounded
+//                     join cache before its segmentation came
 // A gap in frame_id without a gap in sample_seq is a frame an earlier stage
 // dropped and counted itself; it is not counted again.
 #include <cstdint>
@@ -24,6 +26,7 @@ inline constexpr const char* kDropSuperseded = "superseded";
 inline constexpr const char* kDropMalformed = "malformed";
 inline constexpr const char* kDropProcessingError = "processing_error";
 inline constexpr const char* kDropJoinTimeout = "join_timeout";
+inline constexpr const char* kDropJoinEvicted = "join_evicted";
 inline constexpr const char* kDropSourceError = "source_error";
 
 // Not thread-safe: one per service, used from its main loop.

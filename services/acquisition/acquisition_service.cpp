@@ -19,7 +19,7 @@ AcquisitionService::AcquisitionService(dds::ShutdownSignal& signals, const Acqui
     : params_(params),
       frame_limit_(frame_limit),
       runtime_(signals, "acquisition", params.transport),
-      source_(openFrameSource(source_spec, calib_path)),
+      source_(openSource(source_spec, calib_path)),
       topic_(runtime_.participant(), dds::kStereoFrameTopic),
       writer_(runtime_.participant(), topic_, params.transport.images) {
   runtime_.log().info("source {}, rate {} Hz, frames {}", source_->describe(), params_.rate_hz,
@@ -30,6 +30,15 @@ AcquisitionService::AcquisitionService(dds::ShutdownSignal& signals, const Acqui
     preloaded_.push_back(std::move(pair));
   }
   if (params_.preload_frames > 0 && preloaded_.empty()) throw InputError("source " + source_spec + " has no frames");
+}
+
+std::unique_ptr<FrameSource> AcquisitionService::openSource(const std::string& spec, const std::string& calib_path) {
+  if (!isRos2SourceSpec(spec)) return openFrameSource(spec, calib_path);
+  if (params_.rate_hz > 0.0) {
+    runtime_.log().info("ros2 source: frames are paced by the camera (rate_hz {} ignored)", params_.rate_hz);
+    params_.rate_hz = 0.0;
+  }
+  return std::make_unique<Ros2StereoSource>(runtime_, parseRos2SourceSpec(spec), params_.ros2, calib_path);
 }
 
 bool AcquisitionService::nextPair(StereoPair& pair) {

@@ -14,7 +14,7 @@ int main(int argc, char** argv) {
   return sg::dds::serviceMain(
       argc, argv, "acquisition",
       [&](CLI::App& app) {
-        app.add_option("--source", source, "synthetic[:SEED] (default), pairs:DIR or kitti:DIR");
+        app.add_option("--source", source, "synthetic[:SEED] (default), pairs:DIR, kitti:DIR or ros2:LEFT_IMAGE,RIGHT_IMAGE[,LEFT_INFO,RIGHT_INFO]");
         app.add_option("--calib", calib, "calibration file overriding the source's own");
         app.add_option("--rate", rate_hz, "frames per second (overrides rate_hz; 0 = as fast as possible)");
         app.add_option("--min-readers", min_readers, "matched readers awaited before the first frame");

@@ -36,6 +36,7 @@ struct BenchOptions {
   int frames = 30;
   int threads = 0;  // 0 = TBB default
   bool pipeline = false;  // also the multi-process DDS pipeline (pipeline_bench.hpp)
+  double rate_hz = 5.0;   // --pipeline: acquisition rate (frames/s); 0 = as fast as the stages take them
 };
 
 struct Stats {
@@ -144,6 +145,7 @@ void runBench(const BenchOptions& opt) {
     pb.source = opt.source;
     pb.calib = opt.calib;
     pb.frames = static_cast<std::uint64_t>(std::max(opt.frames, 1)) * 4;
+    pb.rate_hz = opt.rate_hz;
     const PipelineBenchResult r = runPipelineBench(pb);
     std::cout << "\n" << formatPipelineBench(r);
     pipeline_json = pipelineBenchJson(r);
@@ -181,6 +183,9 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--json", opt->json, "write the figures to this JSON file");
   cmd->add_flag("--pipeline", opt->pipeline,
                 "also the multi-process DDS pipeline on loopback: sustained frames/s and latency (4 x --frames)");
+  cmd->add_option("--rate", opt->rate_hz, "with --pipeline: acquisition rate in frames/s (0 = as fast as possible)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 10000.0));
   cmd->callback([opt] { runBench(*opt); });
 }
 

@@ -18,8 +18,7 @@ struct PipelineBenchOptions {
   std::string calib;
   std::uint64_t frames = 200;        // frames published by acquisition
   int preload = 10;                  // distinct frames, read once and repeated (the source's own cost excluded)
-  double rate_hz = 5.0;              // paced: at 0 (as fast as possible) the grey-frame join cache of
-                                     // localization (16 frames) is overrun and frames drop as join_timeout
+  double rate_hz = 5.0;              // acquisition rate (frames/s); 0 = as fast as the stages take them
   int domain_id = -1;                // -1: SG_DDS_DOMAIN, else 0
   bool in_process = true;            // also run the same frames through one Detector in this process
 };

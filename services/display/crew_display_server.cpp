@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <optional>
 #include <vector>
 
 #include <unistd.h>
@@ -85,6 +87,7 @@ struct CrewDisplayServer::Frame {
   cv::Mat image;        // CV_8UC1 or CV_8UC3, owned
   cv::Mat labels;       // CV_8UC1 SegmentLabel or empty
   cv::Mat correlation;  // rows x offsets or empty
+  std::vector<float> ground_offset_per_row;  // polyline drawn on the correlation image; may be empty
   nlohmann::json result;
   bool has_result = false;
   std::once_flag jpeg_once, overlay_once, correlation_once;
@@ -183,7 +186,8 @@ void CrewDisplayServer::publishFrame(const std::string& frame_id, const cv::Mat&
   promoteReadyLocked(Clock::now());
 }
 
-void CrewDisplayServer::publishLayers(const std::string& frame_id, const cv::Mat& labels, const cv::Mat& correlation) {
+void CrewDisplayServer::publishLayers(const std::string& frame_id, const cv::Mat& labels, const cv::Mat& correlation,
+                                      const std::vector<float>& ground_offset_per_row) {
   cv::Mat labels_copy;
   cv::Mat correlation_copy;
   if (!labels.empty() && labels.type() == CV_8UC1) labels_copy = labels.clone();
@@ -192,7 +196,10 @@ void CrewDisplayServer::publishLayers(const std::string& frame_id, const cv::Mat
   for (auto& frame : pending_) {
     if (frame->id != frame_id) continue;
     if (!labels_copy.empty() && labels_copy.size() == frame->image.size()) frame->labels = std::move(labels_copy);
-    if (!correlation_copy.empty()) frame->correlation = std::move(correlation_copy);
+    if (!correlation_copy.empty()) {
+      frame->correlation = std::move(correlation_copy);
+      frame->ground_offset_per_row = ground_offset_per_row;
+    }
     return;
   }
 }
@@ -299,6 +306,11 @@ std::string CrewDisplayServer::frameEventLocked() const {
                           {"height", frame->image.rows},
                           {"has_labels", !frame->labels.empty()},
                           {"has_correlation", !frame->correlation.empty()},
+                          {"correlation_size",
+                           frame->correlation.empty()
+                               ? nlohmann::json()
+                               : nlohmann::json{{"rows", frame->correlation.rows},
+                                                {"offsets", frame->correlation.cols}}},
                           {"wait_ms", millisecondsBetween(frame->received, Clock::now())},
                           {"result", frame->has_result ? frame->result : nlohmann::json()}};
   return sseEvent("frame", event.dump());
@@ -366,16 +378,31 @@ const std::string& CrewDisplayServer::encodeOverlay(Frame& frame) {
 const std::string& CrewDisplayServer::encodeCorrelation(Frame& frame) {
   std::call_once(frame.correlation_once, [&] {
     if (frame.correlation.empty()) return;
+    // False colour from 0 (no match, black) to the image's own maximum
+    // (white-yellow): scores are often low, and the shape matters, not the scale.
     cv::Mat values;
     frame.correlation.convertTo(values, CV_32F);
-    double low = 0.0;
     double high = 0.0;
-    cv::minMaxLoc(values, &low, &high);
+    cv::minMaxLoc(values, nullptr, &high);
     cv::Mat grey;
-    const double range = high - low;
-    values.convertTo(grey, CV_8U, range > 0.0 ? 255.0 / range : 0.0, range > 0.0 ? -low * 255.0 / range : 0.0);
+    values.convertTo(grey, CV_8U, high > 0.0 ? 255.0 / high : 0.0, 0.0);
     cv::Mat coloured;
     cv::applyColorMap(grey, coloured, cv::COLORMAP_INFERNO);
+    // The ground (below the horizon) and background (above) polyline, one
+    // offset per row, in cyan: a colour the map never uses.
+    const auto& line = frame.ground_offset_per_row;
+    const int rows = std::min(static_cast<int>(line.size()), coloured.rows);
+    std::optional<cv::Point> previous;
+    for (int y = 0; y < rows; ++y) {
+      const float d = line[static_cast<std::size_t>(y)];
+      if (!std::isfinite(d) || d < 0.0f || d > static_cast<float>(coloured.cols - 1)) {
+        previous.reset();
+        continue;
+      }
+      const cv::Point point(static_cast<int>(std::lround(d)), y);
+      cv::line(coloured, previous.value_or(point), point, cv::Scalar(255, 255, 0), 1, cv::LINE_8);
+      previous = point;
+    }
     std::vector<unsigned char> bytes;
     cv::imencode(".png", coloured, bytes, {cv::IMWRITE_PNG_COMPRESSION, 1});
     frame.correlation_png.assign(bytes.begin(), bytes.end());

@@ -27,6 +27,7 @@
 #include <string>
 #include <thread>
 #include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
@@ -113,7 +114,8 @@ class CrewDisplayServer {
   // A new live frame. `image`: CV_8UC1 grey or CV_8UC3 BGR (copied).
   // `labels`: optional CV_8UC1 SegmentLabel image of the same size, drawn as
   // the ground/background/obstacle overlay. `correlation`: optional rows x
-  // offsets correlation image (CV_32F or CV_8U), shown on request.
+  // offsets correlation image (CV_32F or CV_8U; 0 = no match), shown on
+  // request in false colour, stretched to its own maximum.
   // `frame_id` joins the frame with its result and layers (unique in the
   // stream; zero-padded so that text order is stream order); `name`, shown to
   // the crew, is the source's frame name (default: frame_id).
@@ -121,7 +123,10 @@ class CrewDisplayServer {
                     const cv::Mat& correlation = cv::Mat(), const std::string& name = std::string());
   // Overlay layers that arrive after their frame (another topic): attached to
   // the frame while it is still waiting for its result; ignored afterwards.
-  void publishLayers(const std::string& frame_id, const cv::Mat& labels, const cv::Mat& correlation);
+  // `ground_offset_per_row` (one offset per image row, NaN where unknown) is
+  // the ground/background polyline, drawn on the correlation image.
+  void publishLayers(const std::string& frame_id, const cv::Mat& labels, const cv::Mat& correlation,
+                     const std::vector<float>& ground_offset_per_row = {});
   // Per-frame result JSON (DESIGN.md per-frame format; "frame" = frame id,
   // "humans" = people with box, distance_m, track_id).
   void publishResult(const nlohmann::json& result);

@@ -185,7 +185,8 @@ void DisplayService::takeSegmentations() {
       }
       if (!segmentation_data_.info.payload_valid) continue;
       ++segmentations_;
-      server_.publishLayers(displayFrameKey(segmentation_data_.info), segmentation_data_.result.labels, cv::Mat());
+      server_.publishLayers(displayFrameKey(segmentation_data_.info), segmentation_data_.result.labels,
+                            segmentation_data_.correlation, segmentation_data_.result.ground.offset_per_row);
     }
   }
 }

@@ -5,7 +5,7 @@
 // side from crew_display_server.hpp.
 //
 //   stereoguard/stereo_frame      -> the live left image (joined with its detections by frame name)
-//   stereoguard/segmentation      -> the ground/background/obstacle overlay
+//   stereoguard/segmentation      -> the ground/background/obstacle overlay, the correlation image
 //   stereoguard/human_detections  -> boxes, distances, track ids
 //   stereoguard/stage_metrics     -> the per-stage panel
 #include <cstdint>

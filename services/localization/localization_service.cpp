@@ -1,6 +1,8 @@
 #include "localization_service.hpp"
 
+#include <algorithm>
 #include <exception>
+#include <string>
 
 #include "config/errors.hpp"
 
@@ -42,16 +44,51 @@ void LocalizationService::takeFrames() {
     for (std::size_t i = 0; i < samples.size(); ++i) {
       if (!samples.valid(i) || !samples[i].header.payload_valid) continue;
       const std::uint64_t id = samples[i].header.frame_id;
+      newest_frame_id_ = id;
       try {
-        dds::readStereoFrame(samples[i], frames_[id]);
+        CachedFrame& cached = frames_[id];
+        dds::readStereoFrame(samples[i], cached.data);
+        cached.arrival = std::chrono::steady_clock::now();
       } catch (const InputError& e) {
-        // Not a frame of this stage's accounting: the segmentation of this id will time out and be counted.
+        // Not a frame of this stage's accounting: the segmentation of this id is dropped (join_timeout) and counted.
         frames_.erase(id);
         runtime_.log().warn("grey frame {} ignored (malformed): {}", id, e.what());
       }
     }
-    while (frames_.size() > static_cast<std::size_t>(params_.join_cache_frames)) frames_.erase(frames_.begin());
+    trimFrameCache(std::chrono::steady_clock::now());
   }
+}
+
+std::chrono::steady_clock::duration LocalizationService::joinWindow() const {
+  double ms = params_.join_timeout_ms;  // nothing observed yet: keep them as long as a segmentation may wait
+  if (segmentation_delay_ms_ > 0.0) {
+    ms = std::clamp(params_.join_window_factor * segmentation_delay_ms_, 100.0,
+                    std::max(100.0, params_.join_timeout_ms));
+  }
+  return std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double, std::milli>(ms));
+}
+
+void LocalizationService::trimFrameCache(std::chrono::steady_clock::time_point now) {
+  constexpr std::size_t kEvictedIdsKept = 4096;  // ids only: 8 bytes each
+  const auto window = joinWindow();
+  const auto evict = [this] {
+    evicted_.insert(frames_.begin()->first);
+    frames_.erase(frames_.begin());
+  };
+  // Aged out: its segmentation is far later than any seen so far (most likely
+  // the frame was superseded upstream and has none).
+  while (!frames_.empty() && now - frames_.begin()->second.arrival > window) evict();
+  // The memory bound: more frames in flight than join_cache_frames.
+  while (frames_.size() > static_cast<std::size_t>(params_.join_cache_frames)) {
+    evict();
+    if (++evictions_ == 1 || evictions_ % 1000 == 0) {
+      runtime_.log().warn("{} grey frame(s) evicted by join_cache_frames = {} while younger than the join window "
+                          "({:.0f} ms): more frames in flight than the cache holds",
+                          evictions_, params_.join_cache_frames,
+                          std::chrono::duration<double, std::milli>(window).count());
+    }
+  }
+  while (evicted_.size() > kEvictedIdsKept) evicted_.erase(evicted_.begin());
 }
 
 void LocalizationService::takeSegmentations() {
@@ -107,12 +144,20 @@ bool LocalizationService::joinPending(bool flush) {
     const bool last = p.segmentation.info.end_of_stream;
     auto frame = frames_.find(id);
     if (frame != frames_.end()) {
-      localize(p, frame->second, last);
+      const double delay_ms = std::chrono::duration<double, std::milli>(p.arrival - frame->second.arrival).count();
+      segmentation_delay_ms_ = std::max(delay_ms, 0.98 * segmentation_delay_ms_);
+      localize(p, frame->second.data, last);
       frames_.erase(frames_.begin(), std::next(frame));  // older grey frames can no longer be joined
-    } else if (flush || now - p.arrival >= timeout) {
+    } else if (evicted_.erase(id) > 0) {
+      runtime_.stats().dropped(dds::kDropJoinEvicted);
+      runtime_.log().debug("frame {} dropped: its grey frame was evicted from the join cache", id);
+      if (last) publishMarker(p.segmentation.info);
+    } else if (flush || (newest_frame_id_ && *newest_frame_id_ > id) || now - p.arrival >= timeout) {
+      // Grey frames arrive in frame id order: once a newer one is here, this one will not come any more.
       runtime_.stats().dropped(dds::kDropJoinTimeout);
-      runtime_.log().warn("frame {} dropped: its grey frame did not arrive within {} ms", id,
-                          params_.join_timeout_ms);
+      runtime_.log().warn("frame {} dropped: its grey frame did not arrive (newest grey frame {}, waited {:.0f} ms)", id,
+                          newest_frame_id_ ? std::to_string(*newest_frame_id_) : std::string("none"),
+                          std::chrono::duration<double, std::milli>(now - p.arrival).count());
       if (last) publishMarker(p.segmentation.info);
     } else {
       return false;  // keep the order: wait for this frame
@@ -210,6 +255,10 @@ void LocalizationService::run() {
     if (joinPending(false)) done_ = true;
   }
   if (done_) writer_.waitForAcks(std::chrono::seconds(5));
+  if (evictions_ > 0) {
+    runtime_.log().info("join cache: {} grey frame(s) evicted by join_cache_frames = {}", evictions_,
+                        params_.join_cache_frames);
+  }
   runtime_.finish();
 }
 

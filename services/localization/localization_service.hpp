@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <deque>
 #include <map>
+#include <optional>
+#include <set>
 
 #include "dds/conversions.hpp"
 #include "dds/service.hpp"
@@ -20,7 +22,14 @@ struct LocalizationServiceParams {
   TrackerParams tracker;
   bool tracking = true;          // run the tracker (off: track_id stays -1)
   double frame_period_s = 0.1;   // tracker time of a frame = frame_id * frame_period_s (as `stereoguard detect`)
-  int join_cache_frames = 16;    // grey frames kept while their segmentation is on its way
+  // Grey frames wait here, by frame id, for their segmentation. Kept: every
+  // frame younger than join_window_factor x the observed segmentation delay
+  // (grey frame arrival -> its segmentation's arrival, a decaying maximum),
+  // at most join_cache_frames of them (the memory bound: 0.93 MB each at
+  // 1242x375). A frame evicted by the bound before its segmentation came is
+  // counted as join_evicted.
+  int join_cache_frames = 64;
+  double join_window_factor = 3.0;
   double join_timeout_ms = 2000; // a segmentation whose grey frame has not arrived by then is dropped
 
   template <class V>
@@ -31,7 +40,10 @@ struct LocalizationServiceParams {
     v.field("tracking", tracking, 0, 1, "", "track people across frames");
     v.field("frame_period_s", frame_period_s, 1e-4, 10, "seconds",
             "frame time used by the tracker: frame_id * frame_period_s (deterministic, as the offline tools)");
-    v.field("join_cache_frames", join_cache_frames, 1, 1000, "frames", "grey frames kept for the join");
+    v.field("join_cache_frames", join_cache_frames, 1, 1000, "frames",
+            "most grey frames kept for the join (memory bound, ~0.93 MB each at 1242x375)");
+    v.field("join_window_factor", join_window_factor, 1.0, 100.0, "",
+            "grey frames younger than this times the observed segmentation delay are kept for the join");
     v.field("join_timeout_ms", join_timeout_ms, 1, 60000, "milliseconds",
             "longest wait for the grey frame of a segmentation");
   }
@@ -74,7 +86,20 @@ class LocalizationService {
   dds::Writer<sg_idl_HumanDetections> writer_;
   HumanLocalizer localizer_;
   HumanTracker tracker_;
-  std::map<std::uint64_t, dds::StereoFrameData> frames_;  // by frame id, bounded by join_cache_frames
+  struct CachedFrame {
+    dds::StereoFrameData data;
+    std::chrono::steady_clock::time_point arrival;
+  };
+  // Drops grey frames older than the join window, then the oldest beyond join_cache_frames.
+  void trimFrameCache(std::chrono::steady_clock::time_point now);
+  // How long grey frames are kept: join_window_factor x the observed delay, within [100 ms, join_timeout_ms].
+  std::chrono::steady_clock::duration joinWindow() const;
+
+  std::map<std::uint64_t, CachedFrame> frames_;           // by frame id, bounded by join_cache_frames
+  std::set<std::uint64_t> evicted_;                       // ids evicted by the bound, not yet asked for (bounded)
+  std::optional<std::uint64_t> newest_frame_id_;          // highest grey frame id received
+  double segmentation_delay_ms_ = 0.0;                    // decaying maximum of the observed delay
+  std::uint64_t evictions_ = 0;                           // grey frames evicted by join_cache_frames
   std::deque<Pending> pending_;                           // segmentations waiting for their grey frame
   dds::SampleGapCounter gaps_;
   dds::DetectionsEncoder encoder_;

@@ -6,7 +6,8 @@ SegmentationService::SegmentationService(dds::ShutdownSignal& signals, const Seg
                                          std::uint64_t frame_limit)
     : runtime_(signals, "segmentation", params.transport),
       pipe_(runtime_, dds::kFeatureFrameTopic, dds::kSegmentationTopic, frame_limit),
-      segmenter_(params.segmenter) {}
+      segmenter_(params.segmenter),
+      send_correlation_(params.send_correlation) {}
 
 void SegmentationService::compute(const sg_idl_FeatureFrame& in, const dds::FrameInfo& info,
                                   sg_idl_Segmentation& out) {
@@ -14,6 +15,11 @@ void SegmentationService::compute(const sg_idl_FeatureFrame& in, const dds::Fram
   segmenter_.compute(input_.left_features, input_.right_features, input_.rig, output_.result);
   output_.info = info;
   output_.rig = input_.rig;
+  if (send_correlation_) {
+    dds::quantizeCorrelation(output_.result.correlation_initial, output_.correlation);
+  } else {
+    output_.correlation.release();
+  }
   encoder_.fill(output_, out);
   runtime_.log().debug("frame {}: {} obstacles, ground {}, {} label runs ({} bytes)", info.frame_id,
                        output_.result.obstacles.size(), toString(output_.result.ground.source), encoder_.labelRuns(),

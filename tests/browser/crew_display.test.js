@@ -4,7 +4,9 @@
 // synthetic scenes with known people, loads the page and checks that
 //  1. within 5 s it shows one box per visible person, each within 5 % of the
 //     true distance (truth: `stereoguard synth` labels of the same seeds),
-//  2. the overlay toggle shows and hides the segmentation overlay,
+//  2. the overlay toggle shows and hides the segmentation overlay, and the
+//     correlation toggle shows the correlation image (rows x offsets, as tall
+//     as the image, ground/background line drawn) or says it is not sent,
 //  3. the stale warning appears once the pipeline is stopped;
 // it also measures frames/s delivered to three browsers at once and saves
 // screenshots.
@@ -35,6 +37,7 @@ function parseArgs(argv) {
   args.seed = Number(args.seed);
   args.frames = Number(args.frames);
   args.rate = Number(args.rate);
+  args.offsets = Number(args.offsets || 128);  // correlation offsets of config/segmentation.yaml (the segmenter default)
   return args;
 }
 
@@ -310,6 +313,50 @@ async function main() {
     assert.equal(await page.isHidden('#overlay-canvas'), true, 'overlay hidden after the second click');
     log('overlay toggle works');
 
+    // 2b. Correlation toggle: with the pipeline, the segmentation stage's
+    // correlation image (one row per image row, one column per offset) beside
+    // the image, as tall as it, with the ground/background line in cyan; the
+    // demo feeder has none and the panel says so.
+    await page.keyboard.press('c');
+    assert.equal(await page.getAttribute('[data-testid="toggle-correlation"]', 'aria-pressed'), 'true');
+    if (args.mode === 'pipeline') {
+      const corr = await waitFor('correlation image drawn after the toggle', 5000, async () => page.evaluate(() => {
+        const c = document.getElementById('correlation-canvas');
+        const frame = document.getElementById('frame-canvas');
+        if (c.hidden || !c.dataset.frameSeq) return { ok: false, why: `hidden=${c.hidden} seq=${c.dataset.frameSeq}` };
+        const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+        const lineRows = new Set();
+        let lit = 0;
+        for (let i = 0; i < d.length; i += 4) {
+          if (d[i] === 0 && d[i + 1] === 255 && d[i + 2] === 255) lineRows.add(Math.floor(i / 4 / c.width));
+          else if (d[i] + d[i + 1] + d[i + 2] > 60) lit += 1;
+        }
+        const shown = c.getBoundingClientRect();
+        const stage = document.getElementById('stage').getBoundingClientRect();
+        return { ok: true, width: c.width, height: c.height, frameHeight: frame.height, lineRows: lineRows.size, lit,
+          shownHeight: shown.height, stageHeight: stage.height, besideImage: shown.left >= stage.right - 1,
+          noteHidden: document.getElementById('no-correlation').hidden };
+      }));
+      log(`correlation ${corr.width} offsets x ${corr.height} rows (frame ${corr.frameHeight} rows), ground/background ` +
+        `line on ${corr.lineRows} rows, ${corr.lit} lit cells, shown ${corr.shownHeight.toFixed(0)} px tall beside a ` +
+        `${corr.stageHeight.toFixed(0)} px image`);
+      assert.equal(corr.width, args.offsets, 'one correlation column per offset');
+      assert.equal(corr.height, corr.frameHeight, 'one correlation row per image row');
+      assert.ok(corr.lineRows >= corr.height / 4, `the ground/background line is drawn (${corr.lineRows} rows)`);
+      assert.ok(corr.lit >= corr.height, `the correlation image has bright cells (${corr.lit})`);
+      assert.ok(Math.abs(corr.shownHeight - corr.stageHeight) <= 2, 'the correlation image is as tall as the live image');
+      assert.ok(corr.besideImage, 'the correlation image is beside the live image');
+      assert.ok(corr.noteHidden, '"not in this stream" is hidden');
+      await page.screenshot({ path: path.join(out, 'display-synthetic-correlation.png') });
+    } else {
+      await waitFor('"not in this stream" after the toggle', 5000, async () => page.evaluate(() => ({
+        ok: !document.getElementById('no-correlation').hidden && document.getElementById('correlation-canvas').hidden,
+      })));
+    }
+    await page.keyboard.press('c');
+    assert.equal(await page.isHidden('#correlation-panel'), true, 'correlation hidden after the second key press');
+    log('correlation toggle works');
+
     // 3. Three browsers at once for 8 s: frames shown per browser, display CPU.
     // The live rate with one browser, as the reference for three.
     const state0 = await fetchJson(`${url}api/state`);
@@ -377,7 +424,8 @@ async function main() {
 
     if (args.docsImg && args.mode === 'pipeline') {
       fs.mkdirSync(args.docsImg, { recursive: true });
-      for (const f of ['display-synthetic.png', 'display-synthetic-overlay.png', 'display-stale.png']) {
+      for (const f of ['display-synthetic.png', 'display-synthetic-overlay.png', 'display-synthetic-correlation.png',
+        'display-stale.png']) {
         fs.copyFileSync(path.join(out, f), path.join(args.docsImg, f));
       }
       log(`screenshots refreshed in ${args.docsImg}`);

@@ -79,10 +79,20 @@ function show(ev, image, overlay, correlation) {
 
   if (state.correlation) {
     const c = $('correlation-canvas');
-    if (correlation) drawInto(c, correlation, correlation.width, correlation.height);
+    if (correlation) {
+      // One canvas pixel per row and offset; shown twice as wide as tall per cell, as tall as the image.
+      drawInto(c, correlation, correlation.width, correlation.height);
+      c.style.aspectRatio = `${2 * correlation.width} / ${correlation.height}`;
+      c.dataset.rows = String(correlation.height);
+      c.dataset.offsets = String(correlation.width);
+      $('correlation-max-offset').textContent = String(correlation.width - 1);
+    }
     c.dataset.frameSeq = correlation ? String(ev.seq) : '';
     c.hidden = !correlation;
+    $('correlation-axis').hidden = !correlation;
+    $('correlation-legend').hidden = !correlation;
     $('no-correlation').hidden = !!correlation;
+    fitCorrelation();
   }
 
   const humans = (ev.result && Array.isArray(ev.result.humans)) ? ev.result.humans.slice() : [];
@@ -257,6 +267,12 @@ function checkStale() {
   pill.className = `pill ${stale ? 'pill-bad' : 'pill-ok'}`;
 }
 
+// The correlation image is as tall as the live image, so that its rows line up with the image rows.
+function fitCorrelation() {
+  const h = $('stage').clientHeight;
+  if (h > 0) $('correlation-canvas').style.height = `${h}px`;
+}
+
 function setToggle(name, on) {
   state[name] = on;
   $(`toggle-${name}`).setAttribute('aria-pressed', on ? 'true' : 'false');
@@ -264,6 +280,7 @@ function setToggle(name, on) {
     $('overlay-canvas').hidden = !on;
   } else {
     $('correlation-panel').hidden = !on;
+    fitCorrelation();
   }
 }
 
@@ -304,6 +321,7 @@ async function init() {
     if (e.key === 'o' || e.key === 'O') setToggle('overlay', !state.overlay);
     if (e.key === 'c' || e.key === 'C') setToggle('correlation', !state.correlation);
   });
+  if (typeof ResizeObserver === 'function') new ResizeObserver(fitCorrelation).observe($('stage'));
   connect();
   setInterval(checkStale, 200);
   setInterval(renderMetrics, 500);
