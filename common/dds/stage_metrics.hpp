@@ -8,8 +8,8 @@
 //   malformed         the sample failed validation (dds/conversions.hpp)
 //   processing_error  the core threw on this frame
 //   join_timeout      localization: the matching grey frame never arrived
-//   join_evicted      localization: the grey frame arrived but left the bounded
-//                     join cache before its segmentation came
+//   join_evicted      localization: the grey frame left the bounded join buffers
+//                     (cache, reader history) before its segmentation came
 // A gap in frame_id without a gap in sample_seq is a frame an earlier stage
 // dropped and counted itself; it is not counted again.
 #include <cstdint>

@@ -21,8 +21,16 @@ AcquisitionService::AcquisitionService(dds::ShutdownSignal& signals, const Acqui
       runtime_(signals, "acquisition", params.transport),
       source_(openSource(source_spec, calib_path)),
       topic_(runtime_.participant(), dds::kStereoFrameTopic),
-      writer_(runtime_.participant(), topic_, params.transport.images) {
-  runtime_.log().info("source {}, rate {} Hz, frames {}", source_->describe(), params_.rate_hz,
+      writer_(runtime_.participant(), topic_, params.transport.images),
+      answers_topic_(runtime_.participant(), dds::kHumanDetectionsTopic),
+      answers_reader_(runtime_.participant(), answers_topic_, params.transport.results) {
+  // Flow control only where nothing else paces the frames (a camera paces itself).
+  flow_control_ = params_.rate_hz <= 0.0 && params_.max_in_flight > 0 && !isRos2SourceSpec(source_spec);
+  if (flow_control_) runtime_.attach(answers_reader_.dataAvailable(), 1);
+  runtime_.log().info("source {}, rate {} Hz{}, frames {}", source_->describe(), params_.rate_hz,
+                      flow_control_ ? " (at most " + std::to_string(params_.max_in_flight) +
+                                          " frames ahead of human_detections)"
+                                    : std::string(),
                       frame_limit_ == 0 ? std::string("unbounded") : std::to_string(frame_limit_));
   for (int i = 0; i < params_.preload_frames; ++i) {
     StereoPair pair;
@@ -66,6 +74,41 @@ void AcquisitionService::publish(const StereoPair& pair, bool last) {
   dds::fillStereoFrame(data_, sample);
   writer_.write(sample);
   runtime_.stats().published(static_cast<double>(dds::realtimeNowNs() - data_.info.capture_time_ns) * 1e-6);
+}
+
+void AcquisitionService::takeAnswers() {
+  for (;;) {
+    auto samples = answers_reader_.take();
+    if (samples.size() == 0) return;
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      if (!samples.valid(i)) continue;
+      // Frames go through the pipeline in order: an answer for id X settles every frame up to X.
+      const std::uint64_t id = samples[i].header.frame_id;
+      while (!in_flight_.empty() && in_flight_.front().first <= id) in_flight_.pop_front();
+    }
+  }
+}
+
+void AcquisitionService::waitForRoom() {
+  using Clock = std::chrono::steady_clock;
+  const auto limit = static_cast<std::size_t>(params_.max_in_flight);
+  const auto timeout = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double, std::milli>(params_.in_flight_timeout_ms));
+  for (;;) {
+    takeAnswers();
+    // Only with a localization stage to answer (acquisition alone, or with a recorder, runs open loop).
+    if (!flow_control_ || limit == 0 || answers_reader_.matchedWriters() == 0) {
+      in_flight_.clear();
+      return;
+    }
+    const auto now = Clock::now();
+    while (!in_flight_.empty() && now - in_flight_.front().second > timeout) {
+      in_flight_.pop_front();
+      ++given_up_;
+    }
+    if (in_flight_.size() < limit || runtime_.stopping()) return;
+    runtime_.wait(in_flight_.front().second + timeout);
+  }
 }
 
 void AcquisitionService::publishEndMarker() {
@@ -127,8 +170,10 @@ void AcquisitionService::run() {
     }
     runtime_.stats().received(1);
     const bool last = frame_limit_ > 0 && next_frame_id_ + 1 >= frame_limit_;
+    if (flow_control_) waitForRoom();
     try {
       publish(pair, last);
+      if (flow_control_) in_flight_.emplace_back(next_frame_id_, Clock::now());
     } catch (const InputError& e) {
       runtime_.stats().dropped(dds::kDropMalformed);
       log.warn("frame {} dropped (malformed): {}", next_frame_id_, e.what());
@@ -140,6 +185,10 @@ void AcquisitionService::run() {
       ended = true;
       break;
     }
+  }
+  if (given_up_ > 0) {
+    log.info("{} frame(s) got no answer on human_detections within {} ms (dropped downstream)", given_up_,
+             params_.in_flight_timeout_ms);
   }
   if (!ended) publishEndMarker();  // stopped by a signal: tell the stages downstream
   writer_.waitForAcks(std::chrono::seconds(5));

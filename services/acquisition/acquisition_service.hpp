@@ -2,9 +2,12 @@
 // Acquisition stage: reads rectified stereo pairs from any frame source
 // (io/frame_source.hpp, or ROS 2 image topics: ros2_source.hpp) and publishes
 // them as StereoFrame, paced at rate_hz (a ROS 2 source is paced by its camera).
+#include <chrono>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "dds/conversions.hpp"
@@ -19,6 +22,10 @@ struct AcquisitionParams {
   double rate_hz = 10.0;     // frames per second; 0 = as fast as the readers take them
   int min_readers = 1;       // matched StereoFrame readers before the first frame is written
   int preload_frames = 0;    // read this many frames first and publish them in a loop (0 = stream the source)
+  // rate_hz 0: at most this many frames published and not yet answered on
+  // human_detections (once a localization writer is matched); 0 = no limit.
+  int max_in_flight = 1;
+  double in_flight_timeout_ms = 1000;  // a frame unanswered this long was dropped downstream: stop waiting for it
   Ros2SourceParams ros2;     // source ros2:LEFT,RIGHT[,LEFT_INFO,RIGHT_INFO] (ros2_source.hpp)
 
   template <class V>
@@ -29,6 +36,10 @@ struct AcquisitionParams {
     v.field("min_readers", min_readers, 0, 64, "readers", "matched readers awaited before the first frame");
     v.field("preload_frames", preload_frames, 0, 10000, "frames",
             "frames read up-front and repeated (measures the pipeline without the source's cost)");
+    v.field("max_in_flight", max_in_flight, 0, 64, "frames",
+            "with rate_hz 0: frames published but not yet answered on human_detections (0 = no limit)");
+    v.field("in_flight_timeout_ms", in_flight_timeout_ms, 10, 60000, "milliseconds",
+            "with rate_hz 0: stop waiting for the answer to a frame after this long (it was dropped downstream)");
   }
   void validate() const { validateParams(*this, "acquisition"); }
 };
@@ -44,6 +55,9 @@ class AcquisitionService {
   bool nextPair(StereoPair& pair);
   void publish(const StereoPair& pair, bool last);
   void publishEndMarker();
+  // rate_hz 0: waits until fewer than max_in_flight frames are unanswered on human_detections.
+  void waitForRoom();
+  void takeAnswers();
 
   AcquisitionParams params_;
   std::uint64_t frame_limit_;
@@ -56,6 +70,12 @@ class AcquisitionService {
   std::uint64_t next_frame_id_ = 0;
   std::uint64_t next_seq_ = 0;
   dds::StereoFrameData data_;
+  // Flow control at rate_hz 0 (max_in_flight).
+  dds::Topic<sg_idl_HumanDetections> answers_topic_;
+  dds::Reader<sg_idl_HumanDetections> answers_reader_;
+  std::deque<std::pair<std::uint64_t, std::chrono::steady_clock::time_point>> in_flight_;  // id, publication
+  std::uint64_t given_up_ = 0;  // frames whose answer never came (dropped downstream, counted there)
+  bool flow_control_ = false;
 };
 
 }  // namespace sg

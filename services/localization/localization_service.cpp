@@ -148,15 +148,16 @@ bool LocalizationService::joinPending(bool flush) {
       segmentation_delay_ms_ = std::max(delay_ms, 0.98 * segmentation_delay_ms_);
       localize(p, frame->second.data, last);
       frames_.erase(frames_.begin(), std::next(frame));  // older grey frames can no longer be joined
-    } else if (evicted_.erase(id) > 0) {
+    } else if (evicted_.erase(id) > 0 || (newest_frame_id_ && *newest_frame_id_ > id)) {
+      // Evicted from the cache, or (grey frames arrive in frame id order, reliably) replaced in the
+      // reader's KEEP_LAST join_cache_frames history before it was taken: it will not come any more.
       runtime_.stats().dropped(dds::kDropJoinEvicted);
-      runtime_.log().debug("frame {} dropped: its grey frame was evicted from the join cache", id);
+      runtime_.log().debug("frame {} dropped: its grey frame left the bounded join buffers (newest grey frame {})",
+                           id, newest_frame_id_ ? std::to_string(*newest_frame_id_) : std::string("none"));
       if (last) publishMarker(p.segmentation.info);
-    } else if (flush || (newest_frame_id_ && *newest_frame_id_ > id) || now - p.arrival >= timeout) {
-      // Grey frames arrive in frame id order: once a newer one is here, this one will not come any more.
+    } else if (flush || now - p.arrival >= timeout) {
       runtime_.stats().dropped(dds::kDropJoinTimeout);
-      runtime_.log().warn("frame {} dropped: its grey frame did not arrive (newest grey frame {}, waited {:.0f} ms)", id,
-                          newest_frame_id_ ? std::to_string(*newest_frame_id_) : std::string("none"),
+      runtime_.log().warn("frame {} dropped: its grey frame did not arrive within {:.0f} ms", id,
                           std::chrono::duration<double, std::milli>(now - p.arrival).count());
       if (last) publishMarker(p.segmentation.info);
     } else {
