@@ -27,7 +27,8 @@ namespace sg {
 namespace {
 
 using namespace std::chrono_literals;
-constexpr int kDomain = 189;  // one domain per integration test
+// One domain per integration test, outside 100..199 where the browser test picks its own.
+constexpr int kDomain = 211;
 constexpr std::int64_t kStamp0 = 1700000000LL * 1000000000LL;
 
 template <class Pred>
@@ -131,8 +132,10 @@ TEST(Ros2Source, StereoImagesFromRos2TopicsBecomeStereoFrames) {
     auto samples = frames.take();
     for (std::size_t i = 0; i < samples.size(); ++i) {
       if (!samples.valid(i) || !samples[i].header.payload_valid) continue;
-      received.emplace_back();
-      dds::readStereoFrame(samples[i], received.back());
+      dds::StereoFrameData f;
+      dds::readStereoFrame(samples[i], f);
+      if (f.info.source.rfind("1700000000.", 0) != 0) continue;  // not this test's camera
+      received.push_back(std::move(f));
     }
   };
 
