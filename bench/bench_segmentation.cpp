@@ -274,8 +274,10 @@ void registerSweep() {
 class Collector : public benchmark::ConsoleReporter {
  public:
   struct Figures {
-    double min_ms = 0.0;
+    double min_ms = 0.0;  // wall clock
     double median_ms = 0.0;
+    double cpu_min_ms = 0.0;  // CPU time of the benchmark's thread
+    double cpu_median_ms = 0.0;
   };
   std::map<std::string, Figures> figures;
 
@@ -283,38 +285,53 @@ class Collector : public benchmark::ConsoleReporter {
     for (const Run& run : runs) {
       if (run.error_occurred) continue;
       const double ms = run.GetAdjustedRealTime();
+      const double cpu = run.GetAdjustedCPUTime();
       Figures& f = figures[run.run_name.str()];
       if (run.run_type == Run::RT_Aggregate) {
-        if (run.aggregate_name == "median") f.median_ms = ms;
+        if (run.aggregate_name == "median") {
+          f.median_ms = ms;
+          f.cpu_median_ms = cpu;
+        }
         continue;
       }
       f.min_ms = f.min_ms == 0.0 ? ms : std::min(f.min_ms, ms);
+      f.cpu_min_ms = f.cpu_min_ms == 0.0 ? cpu : std::min(f.cpu_min_ms, cpu);
       if (f.median_ms == 0.0) f.median_ms = ms;  // single repetition: the run itself
+      if (f.cpu_median_ms == 0.0) f.cpu_median_ms = cpu;
     }
     ConsoleReporter::ReportRuns(runs);
   }
 };
 
-void printRatio(const Collector& c, const std::string& label, const std::string& slow, const std::string& fast) {
+// Ratio of two benchmarks: on CPU time when both run on one thread (a busy machine
+// inflates wall-clock time by waiting), on wall-clock time for thread-count scaling.
+void printRatio(const Collector& c, const std::string& label, const std::string& slow, const std::string& fast,
+                bool wall = false) {
   const auto a = c.figures.find(slow), b = c.figures.find(fast);
-  if (a == c.figures.end() || b == c.figures.end() || b->second.median_ms <= 0.0 || b->second.min_ms <= 0.0) return;
-  std::printf("  %-58s %7.2fx (median) %7.2fx (min)\n", label.c_str(), a->second.median_ms / b->second.median_ms,
-              a->second.min_ms / b->second.min_ms);
+  if (a == c.figures.end() || b == c.figures.end()) return;
+  const Collector::Figures& x = a->second;
+  const Collector::Figures& y = b->second;
+  const double med = wall ? x.median_ms / y.median_ms : x.cpu_median_ms / y.cpu_median_ms;
+  const double mn = wall ? x.min_ms / y.min_ms : x.cpu_min_ms / y.cpu_min_ms;
+  std::printf("  %-60s %7.2fx (median) %7.2fx (min) %s\n", label.c_str(), med, mn, wall ? "wall" : "cpu");
 }
 
 void printSummary(const Collector& c) {
   std::printf("\nsummary (vector kernels: %s)\n", sg::simd::kernelName());
-  std::printf("  %-58s %9s %9s\n", "benchmark", "median", "min");
-  for (const auto& [name, f] : c.figures) std::printf("  %-58s %9.3f %9.3f ms\n", name.c_str(), f.median_ms, f.min_ms);
+  std::printf("  %-60s %9s %9s %9s %9s (ms)\n", "benchmark", "wall med", "wall min", "cpu med", "cpu min");
+  for (const auto& [name, f] : c.figures)
+    std::printf("  %-60s %9.3f %9.3f %9.3f %9.3f\n", name.c_str(), f.median_ms, f.min_ms, f.cpu_median_ms,
+                f.cpu_min_ms);
   std::printf("\nratios\n");
   for (const char* stage : {"features", "correlation", "ground", "removal", "correlation_after_removal"}) {
     const std::string s = std::string("stage/") + stage;
     printRatio(c, s + ": reference / fast (1 thread)", s + "/reference/threads:1/real_time",
                s + "/fast/threads:1/real_time");
-    printRatio(c, s + ": fast 1 thread / 2 threads", s + "/fast/threads:1/real_time", s + "/fast/threads:2/real_time");
+    printRatio(c, s + ": fast 1 thread / 2 threads", s + "/fast/threads:1/real_time", s + "/fast/threads:2/real_time",
+               true);
   }
   printRatio(c, "segmentation kitti: 1 thread / 2 threads", "segmentation/kitti/threads:1/real_time",
-             "segmentation/kitti/threads:2/real_time");
+             "segmentation/kitti/threads:2/real_time", true);
   printRatio(c, "kitti: StereoBM / segmentation (1 thread each)", "stereobm/kitti/threads:1/real_time",
              "segmentation/kitti/threads:1/real_time");
   for (const auto& [name, f] : c.figures) {
