@@ -1,6 +1,6 @@
 // No heap allocation per frame in steady state: this executable replaces the
 // global operator new/delete and the C allocation functions (cv::Mat buffers
-// and TBB's task memory come from malloc/posix_memalign, not operator new)
+// and TBB's scheduler memory come from malloc/posix_memalign, not operator new)
 // with counting versions, runs a few warm-up frames through each stage, then
 // asserts that the next frames allocate nothing, on 1 and 2 TBB threads.
 #include <atomic>
