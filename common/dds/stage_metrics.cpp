@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <sstream>
 
 #include "dds/conversions.hpp"
@@ -79,9 +80,24 @@ std::string StageStats::summary() const {
   return out.str();
 }
 
+namespace {
+// A stage the launcher restarted after a crash (SG_RESTART_COUNT > 0): the
+// samples its writers published before this process existed belong to the
+// crashed process's accounting (or to the launcher's count of frames lost in
+// the restart), not to this one's.
+bool restartedProcess() {
+  static const bool restarted = [] {
+    const char* env = std::getenv("SG_RESTART_COUNT");
+    return env != nullptr && std::atoi(env) > 0;
+  }();
+  return restarted;
+}
+}  // namespace
+
 std::uint64_t SampleGapCounter::gapBefore(dds_instance_handle_t writer, std::uint64_t sample_seq) {
   auto [it, inserted] = next_.try_emplace(writer, sample_seq + 1);
-  if (inserted) return sample_seq;  // samples 0..seq-1 of a writer first seen now never arrived
+  // Samples 0..seq-1 of a writer first seen now never arrived here.
+  if (inserted) return restartedProcess() ? 0 : sample_seq;
   const std::uint64_t expected = it->second;
   it->second = sample_seq + 1;
   if (sample_seq < expected) return 0;  // same writer restarted its count (should not happen)

@@ -39,6 +39,7 @@ nlohmann::json summaryJson(const PipelineSummary& s) {
   j["delivered"] = s.delivered;
   j["dropped"] = s.dropped;
   j["unaccounted"] = s.unaccounted;
+  j["lost_in_restarts"] = s.lost_in_restarts;
   j["observed"] = s.observed;
   j["completed"] = s.completed;
   j["interrupted"] = s.interrupted;

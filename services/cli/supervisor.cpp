@@ -54,9 +54,12 @@ void Supervisor::spawn(Child& child) {
   for (char** e = environ; *e != nullptr; ++e) {
     const std::string entry(*e);
     const std::string key = entry.substr(0, entry.find('='));
-    if (env_.count(key) == 0) env_strings.push_back(entry);
+    if (env_.count(key) == 0 && key != "SG_RESTART_COUNT") env_strings.push_back(entry);
   }
   for (const auto& [key, value] : env_) env_strings.push_back(key + "=" + value);
+  // A restarted stage does not count what its upstream published before it existed
+  // (dds/stage_metrics.cpp); the launcher accounts for it as lost in the restart.
+  env_strings.push_back("SG_RESTART_COUNT=" + std::to_string(child.restarts));
   std::vector<char*> envp;
   for (auto& s : env_strings) envp.push_back(s.data());
   envp.push_back(nullptr);
@@ -262,6 +265,34 @@ void printTable(const std::map<std::string, dds::StageMetricsData>& stages, cons
   std::cout << out.str() << std::flush;
 }
 
+// One stage's accounting over all its processes (a restarted stage reports
+// afresh under its new pid): counts and drops add up, the rates and
+// percentiles are those of the newest report.
+dds::StageMetricsData combine(const std::map<int, dds::StageMetricsData>& incarnations) {
+  dds::StageMetricsData total;
+  std::uint64_t received = 0;
+  std::uint64_t published = 0;
+  std::map<std::string, std::uint64_t> dropped;
+  for (const auto& [pid, m] : incarnations) {
+    (void)pid;
+    if (m.time_ns >= total.time_ns) total = m;  // the newest report: its rates, percentiles and final flag
+    received += m.frames_received;
+    published += m.frames_published;
+    for (const auto& [reason, count] : m.dropped) dropped[reason] += count;
+  }
+  total.frames_received = received;
+  total.frames_published = published;
+  total.dropped = std::move(dropped);
+  return total;
+}
+
+void record(std::map<std::string, std::map<int, dds::StageMetricsData>>& reports,
+            std::map<std::string, dds::StageMetricsData>& stages, const dds::StageMetricsData& m) {
+  auto& incarnations = reports[m.stage];
+  incarnations[m.pid] = m;
+  stages[m.stage] = combine(incarnations);
+}
+
 std::string absoluteFile(const std::string& path, const char* what) {
   std::error_code ec;
   const fs::path p = fs::absolute(path, ec);
@@ -339,6 +370,7 @@ PipelineSummary runPipeline(const PipelineOptions& options, dds::ShutdownSignal&
   }
 
   PipelineSummary summary;
+  std::map<std::string, std::map<int, dds::StageMetricsData>> reports;  // stage -> pid -> last report
   const auto started = Clock::now();
   auto next_table = started + std::chrono::seconds(1);
   std::optional<Clock::time_point> source_ended;
@@ -351,8 +383,7 @@ PipelineSummary runPipeline(const PipelineOptions& options, dds::ShutdownSignal&
       auto samples = metrics_reader.take();
       for (std::size_t i = 0; i < samples.size(); ++i) {
         if (!samples.valid(i)) continue;
-        const auto m = dds::readStageMetrics(samples[i]);
-        summary.stages[m.stage] = m;
+        record(reports, summary.stages, dds::readStageMetrics(samples[i]));
       }
     }
     for (;;) {
@@ -404,8 +435,7 @@ PipelineSummary runPipeline(const PipelineOptions& options, dds::ShutdownSignal&
       auto samples = metrics_reader.take();
       for (std::size_t i = 0; i < samples.size(); ++i) {
         if (!samples.valid(i)) continue;
-        const auto m = dds::readStageMetrics(samples[i]);
-        summary.stages[m.stage] = m;
+        record(reports, summary.stages, dds::readStageMetrics(samples[i]));
       }
     }
   }
@@ -426,6 +456,16 @@ PipelineSummary runPipeline(const PipelineOptions& options, dds::ShutdownSignal&
   }
   summary.unaccounted = static_cast<std::int64_t>(summary.frames_in) - static_cast<std::int64_t>(summary.delivered) -
                         static_cast<std::int64_t>(summary.dropped);
+  // Frames inside a process when it was killed, published to it while it was
+  // down, or counted by it after its last report: no process can report them,
+  // so they are the remainder, attributed to the restarts. A negative
+  // remainder (counted twice) stays unaccounted.
+  int total_restarts = 0;
+  for (const auto& [name, n] : summary.restarts) total_restarts += n;
+  if (total_restarts > 0 && summary.unaccounted > 0) {
+    summary.lost_in_restarts = static_cast<std::uint64_t>(summary.unaccounted);
+    summary.unaccounted = 0;
+  }
   if (summary.observed > 1 && last_ns > first_ns) {
     summary.observed_fps = static_cast<double>(summary.observed - 1) / (static_cast<double>(last_ns - first_ns) * 1e-9);
   }
@@ -434,8 +474,9 @@ PipelineSummary runPipeline(const PipelineOptions& options, dds::ShutdownSignal&
 
 std::string formatSummary(const PipelineSummary& s) {
   std::ostringstream out;
-  out << "frames in " << s.frames_in << ", delivered " << s.delivered << ", dropped " << s.dropped
-      << ", unaccounted " << s.unaccounted << "\n";
+  out << "frames in " << s.frames_in << ", delivered " << s.delivered << ", dropped " << s.dropped;
+  if (s.lost_in_restarts > 0) out << ", lost in restarts " << s.lost_in_restarts;
+  out << ", unaccounted " << s.unaccounted << "\n";
   for (const std::string& stage : kStages) {
     const auto it = s.stages.find(stage);
     if (it == s.stages.end()) {

@@ -118,11 +118,12 @@ struct PipelineOptions {
 
 // What the pipeline did, from the final StageMetrics of every stage.
 struct PipelineSummary {
-  std::map<std::string, dds::StageMetricsData> stages;  // last report per stage
+  std::map<std::string, dds::StageMetricsData> stages;  // per stage, summed over its processes (restarts)
   std::uint64_t frames_in = 0;     // frames read by acquisition
   std::uint64_t delivered = 0;     // published by localization
   std::uint64_t dropped = 0;       // sum over the stages
-  std::int64_t unaccounted = 0;    // frames_in - delivered - dropped
+  std::uint64_t lost_in_restarts = 0;  // frames no process could report because a stage crashed
+  std::int64_t unaccounted = 0;    // frames_in - delivered - dropped - lost_in_restarts
   std::uint64_t observed = 0;      // HumanDetections received by the launcher
   std::vector<double> latency_ms;  // per observed frame: receive time - capture time
   double observed_fps = 0.0;       // observed frames / time from first to last

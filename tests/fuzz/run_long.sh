@@ -24,7 +24,7 @@ for t in $targets; do
   "$build/tests/fuzz/fuzz_$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
     -artifact_prefix="$out/$t-" "$out/corpus/$t" "$src/corpus/$t" >"$out/$t.log" 2>&1 || status=$?
   {
-    grep -E '^#[0-9]+ +DONE' "$out/$t.log" | tail -1
+    grep -E '^#[0-9]+[[:space:]]+DONE' "$out/$t.log" | tail -1
     grep -E '^stat::(number_of_executed_units|average_exec_per_sec|peak_rss_mb)' "$out/$t.log"
     echo "exit status $status; crash/leak/timeout/oom files: $(ls "$out" | grep -c "^$t-" || true)"
   } | tee -a "$out/summary.txt"

@@ -232,7 +232,7 @@ TEST(PairsSource, BadFramesAreNamedAndSkipped) {
   EXPECT_EQ(pair.id, "a_good");
   expectInputError([&] { source->next(pair); }, {"right/b_truncated.png", "truncated"});
   expectInputError([&] { source->next(pair); }, {"left/c_sizes.png", "right/c_sizes.png", "80x60", "81x60"});
-  expectInputError([&] { source->next(pair); }, {"left/d_text.png", "not a readable image"});
+  expectInputError([&] { source->next(pair); }, {"left/d_text.png", "not a PNG, JPEG, BMP or PNM image"});
   expectInputError([&] { source->next(pair); }, {"right/e_missing.png", "not found"});
   expectInputError([&] { source->next(pair); }, {"left/f_wide.png", "16-bit"});
   expectInputError([&] { source->next(pair); }, {"left/g_empty.png", "empty"});

@@ -5,11 +5,14 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include "camera/calibration.hpp"
 #include "config/errors.hpp"
+#include "io/image_file.hpp"
 #include "temp_dir.hpp"
 
 namespace sg {
@@ -71,6 +74,69 @@ TEST(FuzzRegressions, OpenCvXmlWithANulByteIsRejectedBeforeOpenCvParsesIt) {
   // cv::FileStorage (OpenCV 4.6 XML parser) dereferenced a null pointer on this input.
   const test::TempDir dir("fuzz_regression");
   EXPECT_NE(opencvCalibrationError(dir, "calib_opencv-nul-byte").find("NUL byte at offset 11"), std::string::npos);
+}
+
+// Image files: only the documented formats reach a decoder, and no header may
+// make a decoder allocate for more than 16384 pixels a side. (The image fuzz
+// target reached OpenCV's DICOM, WebP and JPEG 2000 decoders through files
+// named .png.)
+std::string decodeError(const std::vector<unsigned char>& bytes) {
+  try {
+    decodeMono8(bytes, "frame.png");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "accepted";
+  return {};
+}
+
+std::vector<unsigned char> encode(const char* ext, const cv::Mat& image) {
+  std::vector<unsigned char> bytes;
+  EXPECT_TRUE(cv::imencode(ext, image, bytes)) << ext;
+  return bytes;
+}
+
+TEST(ImageHardening, FormatsOtherThanPngJpegBmpPnmAreRefusedBeforeDecoding) {
+  const cv::Mat grey(8, 8, CV_8UC1, cv::Scalar(77));
+  for (const char* ext : {".tiff", ".webp"}) {
+    std::vector<unsigned char> bytes;
+    if (!cv::imencode(ext, grey, bytes)) continue;  // encoder not built into this OpenCV
+    EXPECT_EQ(decodeError(bytes), "frame.png: not a PNG, JPEG, BMP or PNM image (unknown file signature)") << ext;
+  }
+  const std::string dicom_like(132, 'D');  // DICOM: 128-byte preamble, then "DICM"
+  EXPECT_NE(decodeError(std::vector<unsigned char>(dicom_like.begin(), dicom_like.end())).find("unknown file signature"),
+            std::string::npos);
+  for (const char* ext : {".png", ".jpg", ".bmp", ".pgm"}) {
+    const cv::Mat decoded = decodeMono8(encode(ext, grey), std::string("frame") + ext);
+    EXPECT_EQ(decoded.size(), grey.size()) << ext;
+  }
+}
+
+TEST(ImageHardening, HeadersDeclaringHugeImagesAreRefusedBeforeAllocating) {
+  // A 25-byte PGM asking for 60000 x 60000 pixels (3.6 GB).
+  const std::string pgm = "P5\n# comment\n60000 60000\n255\n";
+  EXPECT_EQ(decodeError(std::vector<unsigned char>(pgm.begin(), pgm.end())),
+            "frame.png: header declares a 60000x60000 image; accepted are 1..16384 pixels a side");
+  // A PNG whose IHDR says 20000 x 10 (its CRC no longer matches, but no decoder sees it).
+  std::vector<unsigned char> png = encode(".png", cv::Mat(10, 10, CV_8UC1, cv::Scalar(1)));
+  png[16] = 0;
+  png[17] = 0;
+  png[18] = 0x4e;
+  png[19] = 0x20;
+  EXPECT_EQ(decodeError(png), "frame.png: header declares a 20000x10 image; accepted are 1..16384 pixels a side");
+  // A BMP with a zero width, a JPEG whose frame header says 0 rows.
+  std::vector<unsigned char> bmp = encode(".bmp", cv::Mat(10, 10, CV_8UC1, cv::Scalar(1)));
+  bmp[18] = bmp[19] = bmp[20] = bmp[21] = 0;
+  EXPECT_NE(decodeError(bmp).find("declares a 0x10 image"), std::string::npos);
+  std::vector<unsigned char> jpg = encode(".jpg", cv::Mat(10, 12, CV_8UC1, cv::Scalar(1)));
+  for (std::size_t i = 2; i + 9 < jpg.size(); ++i) {
+    if (jpg[i] == 0xff && jpg[i + 1] == 0xc0) {  // baseline frame header: rows at +5, columns at +7
+      jpg[i + 5] = 0;
+      jpg[i + 6] = 0;
+      break;
+    }
+  }
+  EXPECT_NE(decodeError(jpg).find("declares a 12x0 image"), std::string::npos);
 }
 
 }  // namespace
