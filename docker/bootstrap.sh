@@ -54,6 +54,10 @@ configure_and_build() {
   cmake --build "$build" -j "$jobs"
 }
 
+# The sanitizer and fuzz trees hash paths relative to the clone (ccache
+# base_dir), so a fresh clone anywhere reuses what another clone compiled.
+sg_ccache() { CCACHE_BASEDIR=${CCACHE_BASEDIR:-$root} CCACHE_NOHASHDIR=${CCACHE_NOHASHDIR:-true} "$@"; }
+
 # Sanitizer tree: the unit and integration tests under ASan + UBSan (no
 # benchmarks, no browser test). Any sanitizer report fails the test that ran it.
 sanitizer_tests() {
@@ -64,7 +68,7 @@ sanitizer_tests() {
   cmake -S "$root" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSG_WERROR="$werror" -DSG_SANITIZE=ON \
         -DSG_BUILD_BENCH=OFF -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g1" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1"
   say "building the unit and integration tests with ASan + UBSan"
-  cmake --build "$dir" -j "$jobs"
+  sg_ccache cmake --build "$dir" -j "$jobs"
   say "running the unit and integration tests under ASan + UBSan"
   ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1} \
   UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1} \
@@ -78,15 +82,12 @@ fuzz_smoke() {
   say "configuring $dir (clang, libFuzzer)"
   cmake -S "$root" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSG_WERROR="$werror" -DSG_FUZZ=ON \
         -DSG_BUILD_BENCH=OFF -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14
-  cmake --build "$dir" -j "$jobs" --target fuzz_targets
+  sg_ccache cmake --build "$dir" -j "$jobs" --target fuzz_targets
   say "running every fuzz target for a short while"
   ctest --test-dir "$dir" -j "$jobs" -L fuzz --output-on-failure --timeout 600
 }
 
 SG_CMAKE_ARGS=${SG_CMAKE_ARGS:-}
-# ccache hashes paths relative to the clone, so a fresh clone anywhere reuses
-# what another clone of the same sources compiled.
-export CCACHE_BASEDIR=${CCACHE_BASEDIR:-$root} CCACHE_NOHASHDIR=${CCACHE_NOHASHDIR:-true}
 install_packages
 case "$mode" in
   run)
