@@ -43,8 +43,11 @@ bool hasBmpSignature(const std::vector<unsigned char>& bytes) {
   return bytes.size() >= 2 && bytes[0] == 'B' && bytes[1] == 'M';
 }
 
+// As OpenCV's PxM decoder recognises it: "P1".."P6" and white space. Anything
+// looser would let cv::imdecode try its other decoders on the file (found by
+// tests/fuzz: "P41111..." with "DICM" at offset 128 went to the DICOM reader).
 bool hasPnmSignature(const std::vector<unsigned char>& bytes) {
-  return bytes.size() >= 2 && bytes[0] == 'P' && bytes[1] >= '1' && bytes[1] <= '6';
+  return bytes.size() >= 3 && bytes[0] == 'P' && bytes[1] >= '1' && bytes[1] <= '6' && std::isspace(bytes[2]) != 0;
 }
 
 constexpr long long kMaxImageSide = 16384;  // the largest image a rig may describe (camera/stereo_rig.hpp)

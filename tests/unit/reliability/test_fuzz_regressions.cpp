@@ -112,6 +112,21 @@ TEST(ImageHardening, FormatsOtherThanPngJpegBmpPnmAreRefusedBeforeDecoding) {
   }
 }
 
+TEST(FuzzRegressions, PnmMagicWithoutWhiteSpaceDoesNotReachTheDicomReader) {
+  // "P41111..." passed a looser PNM check; cv::imdecode's own PxM check wants white space
+  // after the magic, so it went on to GDCM (DICM at offset 128), which aborted.
+  const std::string input = regression("image-pnm-magic-then-dicom");
+  EXPECT_EQ(decodeError(std::vector<unsigned char>(input.begin(), input.end())),
+            "frame.png: not a PNG, JPEG, BMP or PNM image (unknown file signature)");
+}
+
+TEST(FuzzRegressions, FileNamedPngThatIsDicomDoesNotReachTheDicomReader) {
+  // cv::imdecode handed this file to GDCM, which asked for 3.9 GB (malloc(3924426544)).
+  const std::string input = regression("image-dicom-4gb-allocation");
+  EXPECT_EQ(decodeError(std::vector<unsigned char>(input.begin(), input.end())),
+            "frame.png: not a PNG, JPEG, BMP or PNM image (unknown file signature)");
+}
+
 TEST(ImageHardening, HeadersDeclaringHugeImagesAreRefusedBeforeAllocating) {
   // A 25-byte PGM asking for 60000 x 60000 pixels (3.6 GB).
   const std::string pgm = "P5\n# comment\n60000 60000\n255\n";
