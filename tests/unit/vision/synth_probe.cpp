@@ -15,7 +15,8 @@ int main(int argc, char** argv) {
   const int w = argc > 2 ? std::atoi(argv[2]) : 1242;
   const int h = argc > 3 ? std::atoi(argv[3]) : 375;
   int found = 0, wanted = 0, spurious = 0;
-  for (int seed = 1; seed <= n; ++seed) {
+  const int first = std::getenv("FIRST") ? std::atoi(std::getenv("FIRST")) : 1;
+  for (int seed = first; seed < first + n; ++seed) {
     const auto t0 = std::chrono::steady_clock::now();
     const SyntheticSceneParams sp = randomSceneParams(static_cast<std::uint64_t>(seed), w, h);
     const StereoPair pair = renderSyntheticScene(sp, static_cast<std::uint64_t>(seed));
@@ -41,6 +42,13 @@ int main(int argc, char** argv) {
                 toString(r.ground.source), ok, rows, static_cast<double>(r.ground.background_offset),
                 static_cast<double>(t.background_offset),
                 std::chrono::duration<double, std::milli>(t1 - t0).count(), r.timing_ms["total"]);
+    if (std::getenv("DUMP_GROUND")) {
+      std::printf("   ground horizon %d per_column %.4f vertices %zu\n", r.ground.horizon_row,
+                  static_cast<double>(r.ground.offset_per_column), r.ground.vertices.size());
+      for (std::size_t y = 0; y < t.ground_offset_per_row.size(); y += 10)
+        std::printf("   row %3zu truth %6.2f found %6.2f\n", y, static_cast<double>(t.ground_offset_per_row[y]),
+                    static_cast<double>(r.ground.offset_per_row[y]));
+    }
     std::vector<int> used(r.obstacles.size(), 0);
     for (std::size_t k = 0; k < t.objects.size(); ++k) {
       const ObjectLabel& o = t.objects[k];
