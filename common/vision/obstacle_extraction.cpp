@@ -70,7 +70,11 @@ void ObstacleExtractor::offsetHistogram(const cv::Mat& matches, const GroundProf
   const int rows = matches.rows;
   const int offsets = matches.cols;
   row_median_.resize(static_cast<std::size_t>(rows));
+  median_stale_.resize(static_cast<std::size_t>(rows), 1);
   for (int y = 0; y < rows; ++y) {
+    // Only rows whose counts changed since the last histogram need a new median.
+    if (!median_stale_[static_cast<std::size_t>(y)]) continue;
+    median_stale_[static_cast<std::size_t>(y)] = 0;
     const int* m = matches.ptr<int>(y);
     row_values_.assign(m, m + offsets);
     const auto mid = row_values_.begin() + offsets / 2;
@@ -154,6 +158,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   obstacles.clear();
   banned_.assign(static_cast<std::size_t>(offsets), 0);
   row_median_.assign(static_cast<std::size_t>(rows), 0);
+  median_stale_.assign(static_cast<std::size_t>(rows), 1);
   prepareContactRows(ground, rows, offsets);
   const bool ground_known = ground.source != GroundSource::kNone;
   const double background =
@@ -196,7 +201,10 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           changed = true;
         }
       }
-      if (changed) changed_rows[static_cast<std::size_t>(y)] = 1;
+      if (changed) {
+        changed_rows[static_cast<std::size_t>(y)] = 1;
+        median_stale_[static_cast<std::size_t>(y)] = 1;
+      }
     }
     return count;
   };
@@ -214,21 +222,28 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     if (offset_hist_[static_cast<std::size_t>(best)] < static_cast<float>(params_.min_peak_matches)) break;
     const int limit = rowLimit(best);
 
-    // Matched pixels at d* (+-tol), once: the histograms below are sums over this mask.
-    mask_.assign(static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols), 0);
-    for (int y = 0; y <= limit; ++y) {
-      const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
-      const std::uint8_t* r = right.ptr<std::uint8_t>(y);
-      std::uint8_t* m = &mask_[static_cast<std::size_t>(y) * static_cast<std::size_t>(cols)];
-      for (int x = 0; x < cols; ++x) m[x] = matchAt(l, r, x, best - tol, best + tol, grey, half, cols) ? 1 : 0;
-    }
-    auto maskRow = [&](int y) { return &mask_[static_cast<std::size_t>(y) * static_cast<std::size_t>(cols)]; };
+    // Matched pixels at d* (+-tol), evaluated on first use and kept for this candidate: the
+    // histograms below need whole rows only where the offset shows, elsewhere only the stripe.
+    // Cell states: kUnknown, kNoMatch, kMatch (a match reads as 1 after subtracting kNoMatch).
+    constexpr std::uint8_t kUnknown = 0, kNoMatch = 1;
+    mask_.assign(static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols), kUnknown);
+    auto maskAt = [&](int y, int x) -> int {
+      std::uint8_t& cell = mask_[static_cast<std::size_t>(y) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(x)];
+      if (cell == kUnknown)
+        cell = static_cast<std::uint8_t>(
+            kNoMatch + (matchAt(remaining.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, best - tol, best + tol,
+                                grey, half, cols)
+                            ? 1
+                            : 0));
+      return cell - kNoMatch;
+    };
     // Column histogram over the rows that show the offset.
     col_hist_.assign(static_cast<std::size_t>(cols), 0.0f);
     for (int y = 0; y <= limit; ++y) {
       if (matches.ptr<int>(y)[best] - row_median_[static_cast<std::size_t>(y)] < params_.min_row_excess) continue;
-      const std::uint8_t* m = maskRow(y);
-      for (int x = 0; x < cols; ++x) col_hist_[static_cast<std::size_t>(x)] += m[x];
+      const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+      for (int x = 0; x < cols; ++x)
+        if (l[x]) col_hist_[static_cast<std::size_t>(x)] += static_cast<float>(maskAt(y, x));
     }
     Extent cx = extent(col_hist_, 0, cols - 1, 0, cols - 1);
     Extent cy;
@@ -236,17 +251,19 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       // Row histogram inside the stripe, then the columns again over those rows.
       row_hist_.assign(static_cast<std::size_t>(rows), 0.0f);
       for (int y = 0; y <= limit; ++y) {
-        const std::uint8_t* m = maskRow(y);
+        const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
         int sum = 0;
-        for (int x = cx.lo; x <= cx.hi; ++x) sum += m[x];
+        for (int x = cx.lo; x <= cx.hi; ++x)
+          if (l[x]) sum += maskAt(y, x);
         row_hist_[static_cast<std::size_t>(y)] = static_cast<float>(sum);
       }
       cy = extent(row_hist_, 0, limit, 0, limit);
       if (cy.hi >= cy.lo) {
         col_hist_.assign(static_cast<std::size_t>(cols), 0.0f);
         for (int y = cy.lo; y <= cy.hi; ++y) {
-          const std::uint8_t* m = maskRow(y);
-          for (int x = 0; x < cols; ++x) col_hist_[static_cast<std::size_t>(x)] += m[x];
+          const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+          for (int x = 0; x < cols; ++x)
+            if (l[x]) col_hist_[static_cast<std::size_t>(x)] += static_cast<float>(maskAt(y, x));
         }
         cx = extent(col_hist_, 0, cols - 1, cx.lo, cx.hi);
       }

@@ -113,12 +113,13 @@ class ObstacleExtractor {
   std::vector<int> row_limit_;     // per offset: last row counted in its histograms
   std::vector<float> offset_hist_;
   std::vector<int> row_median_;
+  std::vector<std::uint8_t> median_stale_;  // rows whose match counts changed since their median
   std::vector<int> row_values_;
   std::vector<float> col_hist_;
   std::vector<float> row_hist_;
   std::vector<float> smooth_;
   std::vector<int> col_offset_;      // per column: the offset the cluster matched it at
-  std::vector<std::uint8_t> mask_;   // matched pixels at the current offset, rows x cols
+  std::vector<std::uint8_t> mask_;   // matches at the current offset, rows x cols, evaluated on first use
   std::vector<std::uint8_t> banned_;  // offsets that gave nothing this frame
 };
 
