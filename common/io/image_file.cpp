@@ -195,6 +195,11 @@ cv::Mat decodeMono8(const std::vector<unsigned char>& bytes, const std::string& 
     fail(path, "cannot decode the image: " + e.msg);
   }
   if (image.empty()) fail(path, "not a readable image (corrupt, truncated or not an image file)");
+  // The header check reads the first frame header; a JPEG with a second one decodes at that size.
+  if (image.cols > kMaxImageSide || image.rows > kMaxImageSide) {
+    fail(path, "decodes to a " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                   " image; accepted are 1..16384 pixels a side");
+  }
   if (image.depth() != CV_8U) {
     fail(path, "image has " + std::to_string(8 * image.elemSize1()) +
                    "-bit samples; only 8-bit images are accepted (convert it first)");

@@ -127,6 +127,14 @@ TEST(FuzzRegressions, FileNamedPngThatIsDicomDoesNotReachTheDicomReader) {
             "frame.png: not a PNG, JPEG, BMP or PNM image (unknown file signature)");
 }
 
+TEST(FuzzRegressions, JpegWhoseSecondFrameHeaderIsTooTallIsRefused) {
+  // The first SOF header passed the size check; the decoder used a later one and
+  // returned a 32x47128 image.
+  const std::string input = regression("image-jpeg-second-frame-header-too-tall");
+  EXPECT_EQ(decodeError(std::vector<unsigned char>(input.begin(), input.end())),
+            "frame.png: decodes to a 32x47128 image; accepted are 1..16384 pixels a side");
+}
+
 TEST(ImageHardening, HeadersDeclaringHugeImagesAreRefusedBeforeAllocating) {
   // A 25-byte PGM asking for 60000 x 60000 pixels (3.6 GB).
   const std::string pgm = "P5\n# comment\n60000 60000\n255\n";
