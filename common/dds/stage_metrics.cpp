@@ -2,82 +2,41 @@
 
 #include <unistd.h>
 
-#include <algorithm>
-#include <cmath>
 #include <cstdlib>
-#include <sstream>
 
 #include "dds/conversions.hpp"
 
 namespace sg::dds {
 
-StageStats::StageStats(std::string stage) : stage_(std::move(stage)), period_start_ns_(realtimeNowNs()) {}
-
-void StageStats::published(double latency_ms) {
-  ++published_;
-  ++period_published_;
-  latency_ms_.push_back(latency_ms);
-}
-
-void StageStats::dropped(const std::string& reason, std::uint64_t frames) {
-  if (frames > 0) drops_[reason] += frames;
-}
-
-std::uint64_t StageStats::framesDropped() const {
-  std::uint64_t total = 0;
-  for (const auto& [reason, count] : drops_) total += count;
-  return total;
-}
-
-double percentile(std::vector<double>& values, double pct) {
-  if (values.empty()) return 0.0;
-  const double rank = std::ceil(pct / 100.0 * static_cast<double>(values.size()));
-  const std::size_t index = std::min(values.size() - 1, static_cast<std::size_t>(std::max(1.0, rank)) - 1);
-  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(index), values.end());
-  return values[index];
-}
+StageStats::StageStats(std::string stage)
+    : metrics_(std::move(stage), kPeriodWindow), period_start_ns_(realtimeNowNs()) {}
 
 void StageStats::fillMetrics(sg_idl_StageMetrics& out, bool final_report) {
   const std::int64_t now = realtimeNowNs();
-  out.stage = const_cast<char*>(stage_.c_str());
+  reported_ = metrics_.takePeriod();
+  out.stage = const_cast<char*>(reported_.stage.c_str());
   out.pid = static_cast<std::int32_t>(getpid());
   out.time_ns = now;
-  out.frames_received = received_;
-  out.frames_published = published_;
+  out.frames_received = reported_.frames_received;
+  out.frames_published = reported_.frames_published;
   drop_scratch_.clear();
-  for (const auto& [reason, count] : drops_) {
+  for (const auto& [reason, count] : reported_.dropped_by_reason) {
     drop_scratch_.push_back(sg_idl_DropCount{const_cast<char*>(reason.c_str()), count});
   }
   out.dropped._maximum = static_cast<std::uint32_t>(drop_scratch_.size());
   out.dropped._length = static_cast<std::uint32_t>(drop_scratch_.size());
   out.dropped._buffer = drop_scratch_.empty() ? nullptr : drop_scratch_.data();
   out.dropped._release = false;
-  out.processing_ms_p50 = percentile(processing_ms_, 50.0);
-  out.processing_ms_p99 = percentile(processing_ms_, 99.0);
-  out.latency_ms_p50 = percentile(latency_ms_, 50.0);
-  out.latency_ms_p99 = percentile(latency_ms_, 99.0);
+  out.processing_ms_p50 = reported_.processing_ms.p50;
+  out.processing_ms_p99 = reported_.processing_ms.p99;
+  out.latency_ms_p50 = reported_.latency_ms.p50;
+  out.latency_ms_p99 = reported_.latency_ms.p99;
   const double period_s = static_cast<double>(now - period_start_ns_) * 1e-9;
-  out.frames_per_s = period_s > 0.0 ? static_cast<double>(period_published_) / period_s : 0.0;
+  const auto period_published = static_cast<double>(reported_.frames_published - period_start_published_);
+  out.frames_per_s = period_s > 0.0 ? period_published / period_s : 0.0;
   out.final_report = final_report;
-  processing_ms_.clear();
-  latency_ms_.clear();
-  period_published_ = 0;
+  period_start_published_ = reported_.frames_published;
   period_start_ns_ = now;
-}
-
-std::string StageStats::summary() const {
-  std::ostringstream out;
-  out << "received " << received_ << ", published " << published_ << ", dropped " << framesDropped();
-  if (!drops_.empty()) {
-    out << " (";
-    bool first = true;
-    for (const auto& [reason, count] : drops_) {
-      out << (first ? "" : ", ") << reason << " " << count;
-      first = false;
-    }
-    out << ")";
-  }
-  return out.str();
 }
 
 namespace {

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "stereoguard.h"
+#include "telemetry/metrics.hpp"
 
 namespace sg::dds {
 
@@ -29,42 +30,47 @@ inline constexpr const char* kDropJoinTimeout = "join_timeout";
 inline constexpr const char* kDropJoinEvicted = "join_evicted";
 inline constexpr const char* kDropSourceError = "source_error";
 
-// Not thread-safe: one per service, used from its main loop.
+// A stage's frame accounting and timing as published in StageMetrics
+// samples. The counting itself is sg::StageMetrics (telemetry/metrics.hpp);
+// this adds the reporting periods (percentiles and the rate cover one period)
+// and the one conversion of its snapshot into the DDS sample.
+// One per service, used from its main loop.
 class StageStats {
  public:
+  // Samples kept per period for the percentiles (the most recent when a period has more).
+  static constexpr std::size_t kPeriodWindow = 8192;
+
   explicit StageStats(std::string stage);
 
-  void received(std::uint64_t frames = 1) { received_ += frames; }
-  void published(double latency_ms);
-  void dropped(const std::string& reason, std::uint64_t frames = 1);
-  void processed(double processing_ms) { processing_ms_.push_back(processing_ms); }
+  void received(std::uint64_t frames = 1) { metrics_.received(frames); }
+  void published(double latency_ms) { metrics_.publishedWithLatency(latency_ms); }
+  void dropped(const std::string& reason, std::uint64_t frames = 1) {
+    if (frames > 0) metrics_.dropped(reason, frames);
+  }
+  void processed(double processing_ms) { metrics_.processingTime(processing_ms); }
 
-  const std::string& stage() const { return stage_; }
-  std::uint64_t framesReceived() const { return received_; }
-  std::uint64_t framesPublished() const { return published_; }
-  std::uint64_t framesDropped() const;
-  const std::map<std::string, std::uint64_t>& drops() const { return drops_; }
+  const std::string& stage() const { return metrics_.stage(); }
+  std::uint64_t framesReceived() const { return metrics_.framesReceived(); }
+  std::uint64_t framesPublished() const { return metrics_.framesPublished(); }
+  std::uint64_t framesDropped() const { return metrics_.framesDropped(); }
+  const StageMetrics& metrics() const { return metrics_; }
 
   // Fills `out` (borrowing strings from this object until the next call) and
   // starts a new reporting period for the percentiles and the rate.
   void fillMetrics(sg_idl_StageMetrics& out, bool final_report);
   // "received 20, published 19, dropped 1 (superseded 1)".
-  std::string summary() const;
+  std::string summary() const { return metrics_.snapshot().countsSummary(); }
 
  private:
-  std::string stage_;
-  std::uint64_t received_ = 0;
-  std::uint64_t published_ = 0;
-  std::map<std::string, std::uint64_t> drops_;
-  std::vector<double> processing_ms_;  // this period
-  std::vector<double> latency_ms_;     // this period
-  std::uint64_t period_published_ = 0;
-  std::int64_t period_start_ns_ = 0;
+  StageMetrics metrics_;
+  StageMetricsSnapshot reported_;  // what the last sample borrows from
   std::vector<sg_idl_DropCount> drop_scratch_;
+  std::uint64_t period_start_published_ = 0;
+  std::int64_t period_start_ns_ = 0;
 };
 
 // Percentile (0..100) by nearest rank; 0 for an empty set. Reorders `values`.
-double percentile(std::vector<double>& values, double pct);
+inline double percentile(std::vector<double>& values, double pct) { return nearestRankPercentile(values, pct); }
 
 // Counts samples lost between one writer and this reader from FrameHeader.sample_seq.
 class SampleGapCounter {

@@ -21,16 +21,20 @@ void SampleWindow::clear() {
   count_ = 0;
 }
 
-double SampleWindow::percentile(double pct, std::vector<double>& scratch) const {
-  const std::size_t n = size();
+double nearestRankPercentile(std::vector<double>& values, double pct) {
+  const std::size_t n = values.size();
   if (n == 0) return 0.0;
-  scratch.assign(ring_.begin(), ring_.begin() + static_cast<std::ptrdiff_t>(n));
   const double clamped = std::clamp(pct, 0.0, 100.0);
   // Nearest rank: the smallest value with at least pct % of the samples at or below it.
   const auto rank = static_cast<std::size_t>(std::ceil(clamped / 100.0 * static_cast<double>(n)));
   const std::size_t index = rank == 0 ? 0 : rank - 1;
-  std::nth_element(scratch.begin(), scratch.begin() + static_cast<std::ptrdiff_t>(index), scratch.end());
-  return scratch[index];
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(index), values.end());
+  return values[index];
+}
+
+double SampleWindow::percentile(double pct, std::vector<double>& scratch) const {
+  scratch.assign(ring_.begin(), ring_.begin() + static_cast<std::ptrdiff_t>(size()));
+  return nearestRankPercentile(scratch, pct);
 }
 
 double SampleWindow::percentile(double pct) const {
@@ -95,10 +99,22 @@ void StageMetrics::publishedWithLatency(double latency_ms) {
 }
 
 StageMetricsSnapshot StageMetrics::snapshot() const {
+  const std::lock_guard lock(mutex_);
+  return snapshotLocked();
+}
+
+StageMetricsSnapshot StageMetrics::takePeriod() {
+  const std::lock_guard lock(mutex_);
+  StageMetricsSnapshot s = snapshotLocked();
+  processing_ms_.clear();
+  latency_ms_.clear();
+  return s;
+}
+
+StageMetricsSnapshot StageMetrics::snapshotLocked() const {
   StageMetricsSnapshot s;
   s.stage = stage_;
   s.uptime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  const std::lock_guard lock(mutex_);
   s.frames_received = received_;
   s.frames_published = published_;
   s.dropped_by_reason = drops_;
@@ -108,11 +124,26 @@ StageMetricsSnapshot StageMetrics::snapshot() const {
   return s;
 }
 
-std::string StageMetricsSnapshot::summary() const {
+std::uint64_t StageMetrics::framesReceived() const {
+  const std::lock_guard lock(mutex_);
+  return received_;
+}
+
+std::uint64_t StageMetrics::framesPublished() const {
+  const std::lock_guard lock(mutex_);
+  return published_;
+}
+
+std::uint64_t StageMetrics::framesDropped() const {
+  const std::lock_guard lock(mutex_);
+  std::uint64_t total = 0;
+  for (const auto& [reason, count] : drops_) total += count;
+  return total;
+}
+
+std::string StageMetricsSnapshot::countsSummary() const {
   std::ostringstream out;
-  out << std::fixed << std::setprecision(1);
-  out << stage << ": received " << frames_received << ", published " << frames_published << ", dropped "
-      << frames_dropped;
+  out << "received " << frames_received << ", published " << frames_published << ", dropped " << frames_dropped;
   if (!dropped_by_reason.empty()) {
     out << " (";
     bool first = true;
@@ -122,6 +153,13 @@ std::string StageMetricsSnapshot::summary() const {
     }
     out << ")";
   }
+  return out.str();
+}
+
+std::string StageMetricsSnapshot::summary() const {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(1);
+  out << stage << ": " << countsSummary();
   if (processing_ms.samples > 0) {
     out << ", processing p50 " << processing_ms.p50 << " ms p99 " << processing_ms.p99 << " ms";
   }

@@ -19,6 +19,10 @@
 
 namespace sg {
 
+// Nearest-rank percentile (pct clamped to [0, 100]) of `values`; 0 for an
+// empty set. Reorders `values`.
+double nearestRankPercentile(std::vector<double>& values, double pct);
+
 // The last `capacity` samples in a ring, with nearest-rank percentiles.
 // Not thread-safe on its own (StageMetrics guards it).
 class SampleWindow {
@@ -67,6 +71,8 @@ struct StageMetricsSnapshot {
   }
   // "features: received 20, published 19, dropped 1 (superseded 1), processing p50 0.8 ms p99 1.2 ms, ..."
   std::string summary() const;
+  // The counts alone: "received 20, published 19, dropped 1 (superseded 1)".
+  std::string countsSummary() const;
 };
 
 class StageMetrics {
@@ -85,7 +91,14 @@ class StageMetrics {
   void publishedWithLatency(double latency_ms);
 
   StageMetricsSnapshot snapshot() const;
+  // A snapshot that ends a reporting period: the sample windows start empty
+  // again, so the next snapshot's percentiles cover only what came after.
+  StageMetricsSnapshot takePeriod();
   const std::string& stage() const { return stage_; }
+  // The counts alone (no percentiles), for checks on every frame.
+  std::uint64_t framesReceived() const;
+  std::uint64_t framesPublished() const;
+  std::uint64_t framesDropped() const;
 
  private:
   const std::string stage_;
@@ -97,6 +110,8 @@ class StageMetrics {
   SampleWindow processing_ms_;
   SampleWindow latency_ms_;
   mutable std::vector<double> scratch_;
+
+  StageMetricsSnapshot snapshotLocked() const;  // with mutex_ held
 };
 
 // Milliseconds on the steady clock since construction or the last restart().

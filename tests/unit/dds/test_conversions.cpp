@@ -298,5 +298,26 @@ TEST(StageStats, PercentilesAndAccounting) {
   EXPECT_TRUE(m.final_report);
 }
 
+TEST(StageStats, EachSampleCoversOnePeriodAndCountsStayCumulative) {
+  StageStats stats("test");
+  stats.received(3);
+  stats.published(100.0);
+  stats.processed(7.0);
+  sg_idl_StageMetrics msg{};
+  stats.fillMetrics(msg, false);
+  EXPECT_DOUBLE_EQ(readStageMetrics(msg).latency_ms_p50, 100.0);
+  stats.published(5.0);
+  stats.dropped(kDropMalformed, 0);  // nothing dropped: no reason listed
+  stats.dropped(kDropMalformed);
+  stats.fillMetrics(msg, true);
+  const StageMetricsData m = readStageMetrics(msg);
+  EXPECT_EQ(m.frames_received, 3u);
+  EXPECT_EQ(m.frames_published, 2u);
+  EXPECT_DOUBLE_EQ(m.latency_ms_p50, 5.0);  // this period only
+  EXPECT_DOUBLE_EQ(m.processing_ms_p50, 0.0);
+  EXPECT_EQ(m.dropped.size(), 1u);
+  EXPECT_EQ(stats.summary(), "received 3, published 2, dropped 1 (malformed 1)");
+}
+
 }  // namespace
 }  // namespace sg::dds

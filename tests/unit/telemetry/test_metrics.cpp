@@ -83,6 +83,27 @@ TEST(StageMetrics, EmptyReasonIsNamedUnspecified) {
   EXPECT_EQ(m.snapshot().dropped_by_reason.count("unspecified"), 1u);
 }
 
+TEST(StageMetrics, TakePeriodRestartsThePercentilesButNotTheCounts) {
+  StageMetrics m("features", 64);
+  m.received(2);
+  m.publishedWithLatency(10.0);
+  m.processingTime(4.0);
+  const StageMetricsSnapshot first = m.takePeriod();
+  EXPECT_DOUBLE_EQ(first.latency_ms.p50, 10.0);
+  EXPECT_EQ(first.processing_ms.samples, 1u);
+  m.publishedWithLatency(20.0);
+  const StageMetricsSnapshot second = m.takePeriod();
+  EXPECT_EQ(second.frames_received, 2u);
+  EXPECT_EQ(second.frames_published, 2u);
+  EXPECT_EQ(second.latency_ms.samples, 1u);
+  EXPECT_DOUBLE_EQ(second.latency_ms.p50, 20.0);
+  EXPECT_EQ(second.processing_ms.samples, 0u);
+  EXPECT_EQ(m.framesReceived(), 2u);
+  EXPECT_EQ(m.framesPublished(), 2u);
+  EXPECT_EQ(m.framesDropped(), 0u);
+  EXPECT_EQ(second.countsSummary(), "received 2, published 2, dropped 0");
+}
+
 TEST(StageMetrics, ServiceThreadAndReportingThreadAgree) {
   StageMetrics m("localization", 256);
   constexpr int kFrames = 20000;
