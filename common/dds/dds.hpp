@@ -37,6 +37,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -214,6 +215,27 @@ class Reader : public Entity {
     return loans;
   }
 
+  // Takes every waiting sample, LoanedSamples::kMax at a time, and calls
+  // fn(sample) or fn(sample, info) for each one that carries data. Returns
+  // how many it called fn for.
+  template <class Fn>
+  std::size_t takeAll(Fn&& fn) {
+    std::size_t n = 0;
+    for (;;) {
+      auto samples = take();
+      if (samples.size() == 0) return n;
+      for (std::size_t i = 0; i < samples.size(); ++i) {
+        if (!samples.valid(i)) continue;
+        if constexpr (std::is_invocable_v<Fn&, const T&, const dds_sample_info_t&>) {
+          fn(samples[i], samples.info(i));
+        } else {
+          fn(samples[i]);
+        }
+        ++n;
+      }
+    }
+  }
+
   std::uint32_t matchedWriters() const {
     dds_subscription_matched_status_t status{};
     check(dds_get_subscription_matched_status(handle(), &status), "dds_get_subscription_matched_status");
@@ -229,6 +251,36 @@ class Reader : public Entity {
 
  private:
   Entity read_condition_;
+};
+
+namespace detail {
+// Holds the topic of a TopicReader / TopicWriter: a base class, so that it is
+// created before (and deleted after) the reader or writer that uses it.
+template <class T>
+class OwnedTopic {
+ public:
+  OwnedTopic(const Participant& participant, const std::string& name) : topic_(participant, name) {}
+  const Topic<T>& topic() const { return topic_; }
+
+ protected:
+  Topic<T> topic_;
+};
+}  // namespace detail
+
+// A reader with a topic of its own: what a service declares for each input.
+template <class T>
+class TopicReader : public detail::OwnedTopic<T>, public Reader<T> {
+ public:
+  TopicReader(const Participant& participant, const std::string& topic_name, const QosParams& qos)
+      : detail::OwnedTopic<T>(participant, topic_name), Reader<T>(participant, this->topic_, qos) {}
+};
+
+// A writer with a topic of its own: what a service declares for each output.
+template <class T>
+class TopicWriter : public detail::OwnedTopic<T>, public Writer<T> {
+ public:
+  TopicWriter(const Participant& participant, const std::string& topic_name, const QosParams& qos)
+      : detail::OwnedTopic<T>(participant, topic_name), Writer<T>(participant, this->topic_, qos) {}
 };
 
 class GuardCondition : public Entity {

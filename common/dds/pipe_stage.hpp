@@ -23,10 +23,8 @@ class PipeStage {
  public:
   PipeStage(ServiceRuntime& runtime, const char* in_topic, const char* out_topic, std::uint64_t frame_limit)
       : runtime_(runtime),
-        in_topic_(runtime.participant(), in_topic),
-        out_topic_(runtime.participant(), out_topic),
-        reader_(runtime.participant(), in_topic_, runtime.transport().images),
-        writer_(runtime.participant(), out_topic_,
+        reader_(runtime.participant(), in_topic, runtime.transport().images),
+        writer_(runtime.participant(), out_topic,
                 std::string(out_topic) == kFeatureFrameTopic ? runtime.transport().images
                                                              : runtime.transport().results),
         frame_limit_(frame_limit) {
@@ -98,7 +96,7 @@ class PipeStage {
     matched_once_ = true;
     const auto timeout = std::chrono::milliseconds(static_cast<long>(runtime_.transport().match_timeout_s * 1000.0));
     if (!writer_.waitForReaders(1, timeout, [this] { return runtime_.stopping(); })) {
-      runtime_.log().warn("no reader matched on {} within {} s; publishing anyway", out_topic_.name(),
+      runtime_.log().warn("no reader matched on {} within {} s; publishing anyway", writer_.topic().name(),
                           runtime_.transport().match_timeout_s);
     }
   }
@@ -122,10 +120,8 @@ class PipeStage {
   }
 
   ServiceRuntime& runtime_;
-  Topic<InMsg> in_topic_;
-  Topic<OutMsg> out_topic_;
-  Reader<InMsg> reader_;
-  Writer<OutMsg> writer_;
+  TopicReader<InMsg> reader_;
+  TopicWriter<OutMsg> writer_;
   SampleGapCounter gaps_;
   std::uint64_t frame_limit_;
   std::uint64_t next_seq_ = 0;

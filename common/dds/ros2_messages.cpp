@@ -39,6 +39,14 @@ std::string ros2DdsTopicName(const std::string& ros_topic) {
   return "rt/" + name;
 }
 
+QosParams ros2Qos(bool reliable, int history_depth) {
+  QosParams q;
+  q.reliable = reliable;
+  q.history_depth = history_depth;
+  q.transient_local = false;
+  return q;
+}
+
 std::int64_t ros2StampNs(const builtin_interfaces_msg_dds__Time_& stamp) {
   return static_cast<std::int64_t>(stamp.sec) * 1000000000 + static_cast<std::int64_t>(stamp.nanosec);
 }

@@ -34,6 +34,10 @@ struct TypeSupport<sensor_msgs_msg_dds__CameraInfo_> {
 // a name that already starts with "rt/" is kept. Throws InputError for an empty name.
 std::string ros2DdsTopicName(const std::string& ros_topic);
 
+// QoS of a ROS 2 endpoint: VOLATILE (a TRANSIENT_LOCAL reader would not match
+// every ROS publisher), KEEP_LAST `history_depth`, RELIABLE or BEST_EFFORT.
+QosParams ros2Qos(bool reliable, int history_depth);
+
 // builtin_interfaces/Time -> nanoseconds since the epoch, and back.
 std::int64_t ros2StampNs(const builtin_interfaces_msg_dds__Time_& stamp);
 void fillRos2Stamp(std::int64_t ns, builtin_interfaces_msg_dds__Time_& out);

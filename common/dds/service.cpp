@@ -46,8 +46,7 @@ ServiceRuntime::ServiceRuntime(ShutdownSignal& signals, const std::string& stage
       participant_(domainId(transport.domain_id)),
       guard_(participant_),
       waitset_(participant_),
-      metrics_topic_(participant_, kStageMetricsTopic),
-      metrics_writer_(participant_, metrics_topic_, transport.metrics),
+      metrics_writer_(participant_, kStageMetricsTopic, transport.metrics),
       stats_(stage),
       next_metrics_(std::chrono::steady_clock::now() +
                     std::chrono::duration_cast<std::chrono::steady_clock::duration>(

@@ -50,6 +50,24 @@ int serviceMain(int argc, char** argv, const std::string& stage,
                 const std::function<void(CLI::App&)>& add_options,
                 const std::function<void(const ServiceOptions&)>& body, ServiceOptions& options);
 
+// The whole main() of a stage without options of its own: Params from
+// --config, then Service(signals, params, frames).run(). Call it first in
+// main(): it blocks SIGINT/SIGTERM (ShutdownSignal) before any thread starts.
+template <class Params, class Service>
+int stageMain(int argc, char** argv, const std::string& stage) {
+  ShutdownSignal signals;
+  ServiceOptions options;
+  return serviceMain(
+      argc, argv, stage, nullptr,
+      [&](const ServiceOptions& opts) {
+        Params params;
+        loadServiceConfig(opts.config_path, params);
+        Service service(signals, params, opts.frames);
+        service.run();
+      },
+      options);
+}
+
 // The DDS side of a stage: participant, shutdown guard, waitset, metrics.
 // Token 0 of the waitset is the shutdown guard; stages use 1, 2, ...
 class ServiceRuntime {
@@ -90,8 +108,7 @@ class ServiceRuntime {
   Participant participant_;
   GuardCondition guard_;
   WaitSet waitset_;
-  Topic<sg_idl_StageMetrics> metrics_topic_;
-  Writer<sg_idl_StageMetrics> metrics_writer_;
+  TopicWriter<sg_idl_StageMetrics> metrics_writer_;
   StageStats stats_;
   std::chrono::steady_clock::time_point next_metrics_;
   bool stop_requested_ = false;

@@ -9,20 +9,10 @@
 
 namespace sg {
 
-namespace {
-
 namespace fs = std::filesystem;
 
-std::optional<Mounting> mountingFile(const fs::path& file) {
-  std::error_code ec;
-  if (!fs::is_regular_file(file, ec)) return std::nullopt;
-  return Mounting{readNumberFile(file.string()), 0.0};
-}
-
-}  // namespace
-
 KittiSource::KittiSource(const std::string& dir, const std::string& calib_path)
-    : dir_(dir), calib_path_(calib_path), loader_(mountingFile(fs::path(dir) / "camera_height_m")) {
+    : dir_(dir), calib_path_(calib_path), loader_(folderMounting(dir)) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw InputError("kitti:" + dir + ": directory not found");
   for (const char* sub : {"image_2", "image_3"}) {

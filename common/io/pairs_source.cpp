@@ -13,12 +13,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::optional<Mounting> mountingFile(const fs::path& file) {
-  std::error_code ec;
-  if (!fs::is_regular_file(file, ec)) return std::nullopt;
-  return Mounting{readNumberFile(file.string()), 0.0};
-}
-
 bool isFile(const fs::path& p) {
   std::error_code ec;
   return fs::is_regular_file(p, ec);
@@ -43,7 +37,7 @@ std::string PairsSource::rightImageFor(const std::string& name) const {
 }
 
 PairsSource::PairsSource(const std::string& dir, const std::string& calib_path)
-    : dir_(dir), loader_(mountingFile(fs::path(dir) / "camera_height_m")) {
+    : dir_(dir), loader_(folderMounting(dir)) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw InputError("pairs:" + dir + ": directory not found");
   const std::string left_dir = (fs::path(dir) / "left").string();

@@ -1,5 +1,8 @@
 #include "io/stereo_file_loader.hpp"
 
+#include <filesystem>
+
+#include "camera/calibration.hpp"
 #include "config/errors.hpp"
 #include "io/image_file.hpp"
 
@@ -8,6 +11,13 @@ namespace sg {
 namespace {
 std::string sizeText(cv::Size size) { return std::to_string(size.width) + "x" + std::to_string(size.height); }
 }  // namespace
+
+std::optional<Mounting> folderMounting(const std::string& dir) {
+  const std::filesystem::path file = std::filesystem::path(dir) / "camera_height_m";
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) return std::nullopt;
+  return Mounting{readNumberFile(file.string()), 0.0};
+}
 
 const Rectifier& StereoFileLoader::rectifierFor(const std::string& calib_path, cv::Size image_size) {
   const std::string key = calib_path + "\n" + sizeText(image_size);

@@ -12,6 +12,10 @@
 
 namespace sg {
 
+// The mounting prior of a pairs: or kitti: folder: DIR/camera_height_m (one
+// number, metres; pitch 0) when that file exists.
+std::optional<Mounting> folderMounting(const std::string& dir);
+
 class StereoFileLoader {
  public:
   // `fallback_mounting` is used when the calibration carries no mounting prior.

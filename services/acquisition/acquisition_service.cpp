@@ -20,10 +20,8 @@ AcquisitionService::AcquisitionService(dds::ShutdownSignal& signals, const Acqui
       frame_limit_(frame_limit),
       runtime_(signals, "acquisition", params.transport),
       source_(openSource(source_spec, calib_path)),
-      topic_(runtime_.participant(), dds::kStereoFrameTopic),
-      writer_(runtime_.participant(), topic_, params.transport.images),
-      answers_topic_(runtime_.participant(), dds::kHumanDetectionsTopic),
-      answers_reader_(runtime_.participant(), answers_topic_, params.transport.results) {
+      writer_(runtime_.participant(), dds::kStereoFrameTopic, params.transport.images),
+      answers_reader_(runtime_.participant(), dds::kHumanDetectionsTopic, params.transport.results) {
   // Flow control only where nothing else paces the frames (a camera paces itself).
   flow_control_ = params_.rate_hz <= 0.0 && params_.max_in_flight > 0 && !isRos2SourceSpec(source_spec);
   if (flow_control_) runtime_.attach(answers_reader_.dataAvailable(), 1);
@@ -77,16 +75,11 @@ void AcquisitionService::publish(const StereoPair& pair, bool last) {
 }
 
 void AcquisitionService::takeAnswers() {
-  for (;;) {
-    auto samples = answers_reader_.take();
-    if (samples.size() == 0) return;
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-      if (!samples.valid(i)) continue;
-      // Frames go through the pipeline in order: an answer for id X settles every frame up to X.
-      const std::uint64_t id = samples[i].header.frame_id;
-      while (!in_flight_.empty() && in_flight_.front().first <= id) in_flight_.pop_front();
-    }
-  }
+  answers_reader_.takeAll([this](const sg_idl_HumanDetections& answer) {
+    // Frames go through the pipeline in order: an answer for id X settles every frame up to X.
+    const std::uint64_t id = answer.header.frame_id;
+    while (!in_flight_.empty() && in_flight_.front().first <= id) in_flight_.pop_front();
+  });
 }
 
 void AcquisitionService::waitForRoom() {

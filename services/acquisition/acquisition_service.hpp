@@ -63,16 +63,14 @@ class AcquisitionService {
   std::uint64_t frame_limit_;
   dds::ServiceRuntime runtime_;
   std::unique_ptr<FrameSource> source_;
-  dds::Topic<sg_idl_StereoFrame> topic_;
-  dds::Writer<sg_idl_StereoFrame> writer_;
+  dds::TopicWriter<sg_idl_StereoFrame> writer_;
   std::vector<StereoPair> preloaded_;
   std::size_t preload_next_ = 0;
   std::uint64_t next_frame_id_ = 0;
   std::uint64_t next_seq_ = 0;
   dds::StereoFrameData data_;
   // Flow control at rate_hz 0 (max_in_flight).
-  dds::Topic<sg_idl_HumanDetections> answers_topic_;
-  dds::Reader<sg_idl_HumanDetections> answers_reader_;
+  dds::TopicReader<sg_idl_HumanDetections> answers_reader_;
   std::deque<std::pair<std::uint64_t, std::chrono::steady_clock::time_point>> in_flight_;  // id, publication
   std::uint64_t given_up_ = 0;  // frames whose answer never came (dropped downstream, counted there)
   bool flow_control_ = false;

@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 
 #include "acquisition_service.hpp"
+#include "io/frame_source.hpp"
 
 int main(int argc, char** argv) {
   sg::dds::ShutdownSignal signals;  // first: every later thread inherits the blocked SIGINT/SIGTERM
@@ -14,7 +15,7 @@ int main(int argc, char** argv) {
   return sg::dds::serviceMain(
       argc, argv, "acquisition",
       [&](CLI::App& app) {
-        app.add_option("--source", source, "synthetic[:SEED] (default), pairs:DIR, kitti:DIR or ros2:LEFT_IMAGE,RIGHT_IMAGE[,LEFT_INFO,RIGHT_INFO]");
+        app.add_option("--source", source, sg::kFrameSourceHelp)->capture_default_str();
         app.add_option("--calib", calib, "calibration file overriding the source's own");
         app.add_option("--rate", rate_hz, "frames per second (overrides rate_hz; 0 = as fast as possible)");
         app.add_option("--min-readers", min_readers, "matched readers awaited before the first frame");

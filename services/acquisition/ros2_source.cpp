@@ -15,13 +15,7 @@ constexpr dds_attach_t kRightToken = 11;
 constexpr dds_attach_t kLeftInfoToken = 12;
 constexpr dds_attach_t kRightInfoToken = 13;
 
-dds::QosParams readerQos(const Ros2SourceParams& p) {
-  dds::QosParams q;
-  q.reliable = p.reliable;
-  q.history_depth = p.history_depth;
-  q.transient_local = false;  // VOLATILE: matches every ROS publisher (a TRANSIENT_LOCAL reader would not)
-  return q;
-}
+dds::QosParams readerQos(const Ros2SourceParams& p) { return dds::ros2Qos(p.reliable, p.history_depth); }
 
 std::string trim(const std::string& text) {
   const auto begin = text.find_first_not_of(" \t");
@@ -41,8 +35,6 @@ std::string stampName(std::int64_t ns) {
 
 }  // namespace
 
-bool isRos2SourceSpec(const std::string& spec) { return spec.rfind("ros2:", 0) == 0; }
-
 Ros2SourceSpec parseRos2SourceSpec(const std::string& spec) {
   if (!isRos2SourceSpec(spec)) throw InputError("frame source '" + spec + "' is not a ros2: source");
   std::vector<std::string> names;
@@ -55,7 +47,7 @@ Ros2SourceSpec parseRos2SourceSpec(const std::string& spec) {
     start = comma + 1;
   }
   if (names.size() != 2 && names.size() != 4) {
-    throw InputError("frame source '" + spec + "': expected ros2:LEFT_IMAGE,RIGHT_IMAGE[,LEFT_INFO,RIGHT_INFO] (" +
+    throw InputError("frame source '" + spec + "': expected " + kRos2SourceForm + " (" +
                      std::to_string(names.size()) + " topic name(s) given)");
   }
   for (std::size_t i = 0; i < names.size(); ++i) {
@@ -79,10 +71,8 @@ Ros2StereoSource::Ros2StereoSource(dds::ServiceRuntime& runtime, const Ros2Sourc
       spec_(spec),
       params_(params),
       calib_path_(calib_path),
-      left_topic_(runtime.participant(), dds::ros2DdsTopicName(spec.left_image)),
-      right_topic_(runtime.participant(), dds::ros2DdsTopicName(spec.right_image)),
-      left_reader_(runtime.participant(), left_topic_, readerQos(params)),
-      right_reader_(runtime.participant(), right_topic_, readerQos(params)),
+      left_reader_(runtime.participant(), dds::ros2DdsTopicName(spec.left_image), readerQos(params)),
+      right_reader_(runtime.participant(), dds::ros2DdsTopicName(spec.right_image), readerQos(params)),
       pairer_(static_cast<std::int64_t>(params.pair_tolerance_ms * 1e6),
               static_cast<std::size_t>(params.pending_images)) {
   if (dds::ros2DdsTopicName(spec.left_image) == dds::ros2DdsTopicName(spec.right_image)) {
@@ -91,11 +81,9 @@ Ros2StereoSource::Ros2StereoSource(dds::ServiceRuntime& runtime, const Ros2Sourc
   runtime_.attach(left_reader_.dataAvailable(), kLeftToken);
   runtime_.attach(right_reader_.dataAvailable(), kRightToken);
   if (!spec.left_info.empty()) {
-    left_info_topic_.emplace(runtime.participant(), dds::ros2DdsTopicName(spec.left_info));
-    right_info_topic_.emplace(runtime.participant(), dds::ros2DdsTopicName(spec.right_info));
     // Depth 1 would do for calibration; KEEP_LAST history_depth costs nothing here.
-    left_info_reader_.emplace(runtime.participant(), *left_info_topic_, readerQos(params));
-    right_info_reader_.emplace(runtime.participant(), *right_info_topic_, readerQos(params));
+    left_info_reader_.emplace(runtime.participant(), dds::ros2DdsTopicName(spec.left_info), readerQos(params));
+    right_info_reader_.emplace(runtime.participant(), dds::ros2DdsTopicName(spec.right_info), readerQos(params));
     runtime_.attach(left_info_reader_->dataAvailable(), kLeftInfoToken);
     runtime_.attach(right_info_reader_->dataAvailable(), kRightInfoToken);
   }
@@ -118,18 +106,13 @@ void Ros2StereoSource::takeInfos() {
   if (!left_info_reader_) return;
   const auto take = [this](dds::Reader<sensor_msgs_msg_dds__CameraInfo_>& reader, const std::string& topic,
                            std::optional<dds::Ros2CameraInfo>& into) {
-    for (;;) {
-      auto samples = reader.take();
-      if (samples.size() == 0) return;
-      for (std::size_t i = 0; i < samples.size(); ++i) {
-        if (!samples.valid(i)) continue;
-        try {
-          into = dds::readRos2CameraInfo(samples[i], "CameraInfo on " + topic);
-        } catch (const InputError& e) {
-          errors_.push_back(e.what());
-        }
+    reader.takeAll([&](const sensor_msgs_msg_dds__CameraInfo_& sample) {
+      try {
+        into = dds::readRos2CameraInfo(sample, "CameraInfo on " + topic);
+      } catch (const InputError& e) {
+        errors_.push_back(e.what());
       }
-    }
+    });
   };
   take(*left_info_reader_, dds::ros2DdsTopicName(spec_.left_info), left_info_);
   take(*right_info_reader_, dds::ros2DdsTopicName(spec_.right_info), right_info_);
@@ -137,23 +120,18 @@ void Ros2StereoSource::takeInfos() {
 
 void Ros2StereoSource::takeImages(dds::Reader<sensor_msgs_msg_dds__Image_>& reader, bool left) {
   const std::string topic = dds::ros2DdsTopicName(left ? spec_.left_image : spec_.right_image);
-  for (;;) {
-    auto samples = reader.take();
-    if (samples.size() == 0) return;
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-      if (!samples.valid(i)) continue;
-      dds::StereoStampPairer::Image image;
-      image.stamp_ns = dds::ros2StampNs(samples[i].header.stamp);
-      try {
-        dds::readRos2ImageMono(samples[i], image.mono, "Image " + stampName(image.stamp_ns) + " on " + topic);
-      } catch (const InputError& e) {
-        errors_.push_back(e.what());
-        continue;
-      }
-      if (left) pairer_.addLeft(std::move(image));
-      else pairer_.addRight(std::move(image));
+  reader.takeAll([&](const sensor_msgs_msg_dds__Image_& sample) {
+    dds::StereoStampPairer::Image image;
+    image.stamp_ns = dds::ros2StampNs(sample.header.stamp);
+    try {
+      dds::readRos2ImageMono(sample, image.mono, "Image " + stampName(image.stamp_ns) + " on " + topic);
+    } catch (const InputError& e) {
+      errors_.push_back(e.what());
+      return;
     }
-  }
+    if (left) pairer_.addLeft(std::move(image));
+    else pairer_.addRight(std::move(image));
+  });
 }
 
 std::optional<StereoRig> Ros2StereoSource::rigFor(cv::Size size) {

@@ -56,8 +56,7 @@ struct Ros2SourceSpec {
   std::string left_info;
   std::string right_info;
 };
-// True when `spec` starts with "ros2:".
-bool isRos2SourceSpec(const std::string& spec);
+// isRos2SourceSpec(): io/frame_source.hpp.
 // Throws InputError naming what is wrong (not 2 or 4 names, an empty name).
 Ros2SourceSpec parseRos2SourceSpec(const std::string& spec);
 
@@ -81,6 +80,8 @@ class Ros2StereoSource : public FrameSource {
  private:
   void takeInfos();
   void takeImages(dds::Reader<sensor_msgs_msg_dds__Image_>& reader, bool left);
+  using ImageReader = dds::TopicReader<sensor_msgs_msg_dds__Image_>;
+  using InfoReader = dds::TopicReader<sensor_msgs_msg_dds__CameraInfo_>;
   // The rig for images of `size`: CameraInfo, --calib or nominal. Empty while CameraInfo is awaited.
   std::optional<StereoRig> rigFor(cv::Size size);
 
@@ -88,14 +89,10 @@ class Ros2StereoSource : public FrameSource {
   Ros2SourceSpec spec_;
   Ros2SourceParams params_;
   std::string calib_path_;
-  dds::Topic<sensor_msgs_msg_dds__Image_> left_topic_;
-  dds::Topic<sensor_msgs_msg_dds__Image_> right_topic_;
-  dds::Reader<sensor_msgs_msg_dds__Image_> left_reader_;
-  dds::Reader<sensor_msgs_msg_dds__Image_> right_reader_;
-  std::optional<dds::Topic<sensor_msgs_msg_dds__CameraInfo_>> left_info_topic_;
-  std::optional<dds::Topic<sensor_msgs_msg_dds__CameraInfo_>> right_info_topic_;
-  std::optional<dds::Reader<sensor_msgs_msg_dds__CameraInfo_>> left_info_reader_;
-  std::optional<dds::Reader<sensor_msgs_msg_dds__CameraInfo_>> right_info_reader_;
+  ImageReader left_reader_;
+  ImageReader right_reader_;
+  std::optional<InfoReader> left_info_reader_;  // with the info topics of the spec
+  std::optional<InfoReader> right_info_reader_;
   std::optional<dds::Ros2CameraInfo> left_info_;
   std::optional<dds::Ros2CameraInfo> right_info_;
   std::optional<StereoRig> fixed_rig_;  // from --calib or nominal, per image size

@@ -189,8 +189,7 @@ void runBench(const BenchOptions& opt) {
 void addBenchCommand(CLI::App& app) {
   auto opt = std::make_shared<BenchOptions>();
   auto* cmd = app.add_subcommand("bench", "per-stage timings of the segmentation and OpenCV StereoBM on the same pairs");
-  cmd->add_option("--source", opt->source, "frame source: synthetic[:SEED], pairs:DIR or kitti:DIR")
-      ->capture_default_str();
+  addSourceOption(*cmd, opt->source);
   cmd->add_option("--calib", opt->calib, "calibration file overriding the source's own");
   cmd->add_option("--config", opt->config, "YAML with 'features' and 'segmentation' parameters");
   cmd->add_option("--frames", opt->frames, "frames measured")->capture_default_str();

@@ -70,7 +70,7 @@ void runDetect(const DetectOptions& o) {
 void addDetectCommand(CLI::App& app) {
   auto opts = std::make_shared<DetectOptions>();
   auto* cmd = app.add_subcommand("detect", "find people in every frame of a source; one JSON object per frame");
-  cmd->add_option("--source", opts->source, "synthetic[:SEED], pairs:DIR or kitti:DIR")->capture_default_str();
+  addSourceOption(*cmd, opts->source);
   cmd->add_option("--calib", opts->calib, "calibration file overriding the source's");
   cmd->add_option("--config", opts->config,
                   "YAML with any of: features, segmentation, localizer, tracker, tracking, frame_period_s "

@@ -269,7 +269,10 @@ void addEvaluateCommand(CLI::App& app) {
   auto opts = std::make_shared<EvaluateOptions>();
   auto* cmd = app.add_subcommand("evaluate", "score detections against KITTI labels (pedestrians, moderate) "
                                              "next to OpenCV's full-frame HOG; metrics.json + report.html");
-  cmd->add_option("--source", opts->source, "kitti:DIR (image_2, image_3, calib, label_2)")->required();
+  cmd->add_option("--source", opts->source,
+                  std::string("kitti:DIR (image_2, image_3, calib, label_2); of the frame sources (") +
+                      kFrameSourceKinds + ") only kitti: has the labels to score against")
+      ->required();
   cmd->add_option("--detections", opts->detections, "detections .jsonl from `stereoguard detect` (default: run it)");
   cmd->add_option("--calib", opts->calib, "calibration file overriding the source's");
   cmd->add_option("--config", opts->config, "detector configuration YAML (when running the detector)");

@@ -79,12 +79,9 @@ void runRecord(const RecordOptions& o) {
   image_qos.history_depth = o.queue;  // reader side only: the writer keeps its own depth
   dds::QosParams result_qos = transport.results;
   result_qos.history_depth = o.queue;
-  dds::Topic<sg_idl_StereoFrame> frame_topic(participant, dds::kStereoFrameTopic);
-  dds::Topic<sg_idl_Segmentation> segmentation_topic(participant, dds::kSegmentationTopic);
-  dds::Topic<sg_idl_HumanDetections> detections_topic(participant, dds::kHumanDetectionsTopic);
-  dds::Reader<sg_idl_StereoFrame> frame_reader(participant, frame_topic, image_qos);
-  dds::Reader<sg_idl_Segmentation> segmentation_reader(participant, segmentation_topic, result_qos);
-  dds::Reader<sg_idl_HumanDetections> detections_reader(participant, detections_topic, result_qos);
+  dds::TopicReader<sg_idl_StereoFrame> frame_reader(participant, dds::kStereoFrameTopic, image_qos);
+  dds::TopicReader<sg_idl_Segmentation> segmentation_reader(participant, dds::kSegmentationTopic, result_qos);
+  dds::TopicReader<sg_idl_HumanDetections> detections_reader(participant, dds::kHumanDetectionsTopic, result_qos);
   dds::WaitSet waitset(participant);
   waitset.attach(guard.handle(), 0);
   waitset.attach(frame_reader.dataAvailable(), 1);
@@ -106,69 +103,55 @@ void runRecord(const RecordOptions& o) {
     if (end_at && now >= *end_at) break;
     waitset.wait(std::chrono::milliseconds(50));
 
-    for (;;) {
-      auto samples = frame_reader.take();
-      if (samples.size() == 0) break;
-      for (std::size_t i = 0; i < samples.size(); ++i) {
-        if (!samples.valid(i) || end_at) continue;
-        dds::readStereoFrame(samples[i], frame);
-        if (frame.info.payload_valid) {
-          RecordedFrame rec;
-          rec.info = frame.info;
-          dds::fillRig(frame.rig, rec.rig);
-          rec.width = frame.left.cols;
-          rec.height = frame.left.rows;
-          rec.receive_time_ns = dds::realtimeNowNs();
-          rec.left_file = recordedImageName(frame.info.frame_id, "left");
-          rec.right_file = recordedImageName(frame.info.frame_id, "right");
-          if (!cv::imwrite((fs::path(o.out) / rec.left_file).string(), frame.left) ||
-              !cv::imwrite((fs::path(o.out) / rec.right_file).string(), frame.right)) {
-            throw InputError("--out '" + o.out + "': cannot write the PNG files of frame " +
-                             std::to_string(frame.info.frame_id));
-          }
-          frames_out << toJson(rec).dump() << "\n";
-          frames_out.flush();
-          ++frames;
+    frame_reader.takeAll([&](const sg_idl_StereoFrame& sample) {
+      if (end_at) return;
+      dds::readStereoFrame(sample, frame);
+      if (frame.info.payload_valid) {
+        RecordedFrame rec;
+        rec.info = frame.info;
+        dds::fillRig(frame.rig, rec.rig);
+        rec.width = frame.left.cols;
+        rec.height = frame.left.rows;
+        rec.receive_time_ns = dds::realtimeNowNs();
+        rec.left_file = recordedImageName(frame.info.frame_id, "left");
+        rec.right_file = recordedImageName(frame.info.frame_id, "right");
+        if (!cv::imwrite((fs::path(o.out) / rec.left_file).string(), frame.left) ||
+            !cv::imwrite((fs::path(o.out) / rec.right_file).string(), frame.right)) {
+          throw InputError("--out '" + o.out + "': cannot write the PNG files of frame " +
+                           std::to_string(frame.info.frame_id));
         }
-        const bool limit = o.frames > 0 && frames >= o.frames;
-        if (frame.info.end_of_stream || limit) {
-          const bool results_expected = segmentation_reader.matchedWriters() + detections_reader.matchedWriters() > 0;
-          end_at = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                      std::chrono::duration<double>(results_expected ? o.linger_s : 0.0));
-        }
+        frames_out << toJson(rec).dump() << "\n";
+        frames_out.flush();
+        ++frames;
       }
-    }
-    for (;;) {
-      auto samples = segmentation_reader.take();
-      if (samples.size() == 0) break;
-      for (std::size_t i = 0; i < samples.size(); ++i) {
-        if (!samples.valid(i)) continue;
-        dds::readSegmentation(samples[i], segmentation);
-        if (!segmentation.info.payload_valid) continue;
-        const FrameRecord record =
-            makeFrameRecord(frameName(segmentation.info), segmentation.rig.width, segmentation.rig.height,
-                            segmentation.result, {}, segmentation.result.timing_ms);
-        writeResultLine(results_out, "segmentation", segmentation.info, record);
-        ++segmentations;
+      const bool limit = o.frames > 0 && frames >= o.frames;
+      if (frame.info.end_of_stream || limit) {
+        const bool results_expected = segmentation_reader.matchedWriters() + detections_reader.matchedWriters() > 0;
+        end_at = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                    std::chrono::duration<double>(results_expected ? o.linger_s : 0.0));
       }
-    }
-    for (;;) {
-      auto samples = detections_reader.take();
-      if (samples.size() == 0) break;
-      for (std::size_t i = 0; i < samples.size(); ++i) {
-        if (!samples.valid(i)) continue;
-        dds::readDetections(samples[i], detection);
-        if (!detection.info.payload_valid) continue;
-        FrameRecord record;
-        record.frame = frameName(detection.info);
-        record.width = detection.width;
-        record.height = detection.height;
-        record.humans = detection.detections;
-        record.timing_ms = detection.timing_ms;
-        writeResultLine(results_out, "human_detections", detection.info, record);
-        ++detections;
-      }
-    }
+    });
+    segmentation_reader.takeAll([&](const sg_idl_Segmentation& sample) {
+      dds::readSegmentation(sample, segmentation);
+      if (!segmentation.info.payload_valid) return;
+      const FrameRecord record =
+          makeFrameRecord(frameName(segmentation.info), segmentation.rig.width, segmentation.rig.height,
+                          segmentation.result, {}, segmentation.result.timing_ms);
+      writeResultLine(results_out, "segmentation", segmentation.info, record);
+      ++segmentations;
+    });
+    detections_reader.takeAll([&](const sg_idl_HumanDetections& sample) {
+      dds::readDetections(sample, detection);
+      if (!detection.info.payload_valid) return;
+      FrameRecord record;
+      record.frame = frameName(detection.info);
+      record.width = detection.width;
+      record.height = detection.height;
+      record.humans = detection.detections;
+      record.timing_ms = detection.timing_ms;
+      writeResultLine(results_out, "human_detections", detection.info, record);
+      ++detections;
+    });
     results_out.flush();
   }
   signals.unbind();

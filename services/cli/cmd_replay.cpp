@@ -65,8 +65,7 @@ void runReplay(const ReplayOptions& o) {
   dds::ShutdownSignal signals;
   const dds::TransportParams transport;
   dds::Participant participant(dds::domainId(o.domain >= 0 ? o.domain : transport.domain_id));
-  dds::Topic<sg_idl_StereoFrame> topic(participant, dds::kStereoFrameTopic);
-  dds::Writer<sg_idl_StereoFrame> writer(participant, topic, transport.images);
+  dds::TopicWriter<sg_idl_StereoFrame> writer(participant, dds::kStereoFrameTopic, transport.images);
   const auto stop = [&] { return signals.requested(); };
   if (o.min_readers > 0 &&
       !writer.waitForReaders(static_cast<std::uint32_t>(o.min_readers),

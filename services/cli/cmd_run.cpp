@@ -11,6 +11,7 @@
 #include "commands.hpp"
 #include "config/errors.hpp"
 #include "config/yaml_params.hpp"
+#include "io/frame_source.hpp"
 #include "supervisor.hpp"
 
 namespace sg::cli {
@@ -53,6 +54,7 @@ nlohmann::json summaryJson(const PipelineSummary& s) {
 }
 
 int runCommand(const RunOptions& o) {
+  checkFrameSourceKind(o.source);  // before any process starts: the error lists every valid kind
   dds::ShutdownSignal signals;  // before the participant and the children: they inherit nothing of it (reset at exec)
   PipelineOptions options;
   if (!o.config.empty()) loadParams(loadYamlFile(o.config), options.params, o.config);
@@ -88,7 +90,7 @@ void addRunCommand(CLI::App& app) {
   auto options = std::make_shared<RunOptions>();
   auto* cmd = app.add_subcommand("run", "start every stage as its own process on loopback DDS (crew display on :8080)");
   cmd->add_option("--config", options->config, "pipeline YAML (config/pipeline.yaml: rate, domain, restarts)");
-  cmd->add_option("--source", options->source, "synthetic[:SEED] (default), pairs:DIR or kitti:DIR");
+  addSourceOption(*cmd, options->source);
   cmd->add_option("--calib", options->calib, "calibration file overriding the source's own");
   cmd->add_option("--frames", options->frames, "stop after N frames went through (0 = until the source ends)");
   cmd->add_option("--rate", options->rate_hz, "acquisition frames per second (0 = as fast as possible)");

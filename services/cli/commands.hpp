@@ -2,9 +2,12 @@
 // Each subcommand of `stereoguard` adds itself to the app. Callbacks report
 // bad usage or bad input by throwing sg::InputError (exit status 2); any other
 // exception is an internal failure (exit status 1).
+#include <string>
+
 namespace CLI {
 class App;
-}
+class Option;
+}  // namespace CLI
 
 namespace sg::cli {
 
@@ -17,5 +20,10 @@ void addRunCommand(CLI::App& app);
 void addConfigDocsCommand(CLI::App& app);
 void addRecordCommand(CLI::App& app);
 void addReplayCommand(CLI::App& app);
+
+// The --source option of every command that reads frames: one help text for
+// every source kind (io/frame_source.hpp). A command checks the kind with
+// checkFrameSourceKind() or openFrameSource(), whose error lists the valid kinds.
+CLI::Option* addSourceOption(CLI::App& cmd, std::string& source);
 
 }  // namespace sg::cli

@@ -325,10 +325,9 @@ PipelineSummary runPipeline(const PipelineOptions& options, dds::ShutdownSignal&
 
   dds::Participant participant(static_cast<dds_domainid_t>(params.domain_id));
   dds::TransportParams transport;
-  dds::Topic<sg_idl_StageMetrics> metrics_topic(participant, dds::kStageMetricsTopic);
-  dds::Topic<sg_idl_HumanDetections> detections_topic(participant, dds::kHumanDetectionsTopic);
-  dds::Reader<sg_idl_StageMetrics> metrics_reader(participant, metrics_topic, transport.metrics);
-  dds::Reader<sg_idl_HumanDetections> detections_reader(participant, detections_topic, transport.results);
+  dds::TopicReader<sg_idl_StageMetrics> metrics_reader(participant, dds::kStageMetricsTopic, transport.metrics);
+  dds::TopicReader<sg_idl_HumanDetections> detections_reader(participant, dds::kHumanDetectionsTopic,
+                                                             transport.results);
   dds::GuardCondition stop(participant);
   signals.bind(stop);
   dds::WaitSet waitset(participant);
@@ -386,18 +385,14 @@ PipelineSummary runPipeline(const PipelineOptions& options, dds::ShutdownSignal&
         record(reports, summary.stages, dds::readStageMetrics(samples[i]));
       }
     }
-    for (;;) {
-      auto samples = detections_reader.take();
-      if (samples.size() == 0) break;
-      for (std::size_t i = 0; i < samples.size(); ++i) {
-        if (!samples.valid(i) || !samples[i].header.payload_valid) continue;
-        const std::int64_t now_ns = dds::realtimeNowNs();
-        summary.latency_ms.push_back(static_cast<double>(now_ns - samples[i].header.capture_time_ns) * 1e-6);
-        if (summary.observed == 0) first_ns = now_ns;
-        last_ns = now_ns;
-        ++summary.observed;
-      }
-    }
+    detections_reader.takeAll([&](const sg_idl_HumanDetections& sample) {
+      if (!sample.header.payload_valid) return;
+      const std::int64_t now_ns = dds::realtimeNowNs();
+      summary.latency_ms.push_back(static_cast<double>(now_ns - sample.header.capture_time_ns) * 1e-6);
+      if (summary.observed == 0) first_ns = now_ns;
+      last_ns = now_ns;
+      ++summary.observed;
+    });
     supervisor.poll();
     const auto now = Clock::now();
     if (options.table && now >= next_table) {

@@ -94,14 +94,10 @@ DisplayService::DisplayService(dds::ServiceRuntime& runtime, CrewDisplayServer& 
     : runtime_(runtime),
       server_(server),
       params_(params),
-      frame_topic_(runtime.participant(), dds::kStereoFrameTopic),
-      segmentation_topic_(runtime.participant(), dds::kSegmentationTopic),
-      detections_topic_(runtime.participant(), dds::kHumanDetectionsTopic),
-      metrics_topic_(runtime.participant(), dds::kStageMetricsTopic),
-      frame_reader_(runtime.participant(), frame_topic_, params.transport.images),
-      segmentation_reader_(runtime.participant(), segmentation_topic_, params.transport.results),
-      detections_reader_(runtime.participant(), detections_topic_, params.transport.results),
-      metrics_reader_(runtime.participant(), metrics_topic_, params.transport.metrics) {
+      frame_reader_(runtime.participant(), dds::kStereoFrameTopic, params.transport.images),
+      segmentation_reader_(runtime.participant(), dds::kSegmentationTopic, params.transport.results),
+      detections_reader_(runtime.participant(), dds::kHumanDetectionsTopic, params.transport.results),
+      metrics_reader_(runtime.participant(), dds::kStageMetricsTopic, params.transport.metrics) {
   runtime_.attach(frame_reader_.dataAvailable(), kFrameToken);
   runtime_.attach(segmentation_reader_.dataAvailable(), kSegmentationToken);
   runtime_.attach(detections_reader_.dataAvailable(), kDetectionsToken);
@@ -137,93 +133,72 @@ void DisplayService::run(std::uint64_t frames) {
 }
 
 void DisplayService::takeFrames() {
-  for (;;) {
-    auto samples = frame_reader_.take();
-    if (samples.size() == 0) return;
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-      if (!samples.valid(i)) continue;
-      const auto gap = frame_gaps_.gapBefore(samples.info(i).publication_handle, samples[i].header.sample_seq);
-      if (gap > 0) runtime_.stats().dropped(dds::kDropSuperseded, gap);
-      try {
-        dds::readStereoFrame(samples[i], frame_data_);
-      } catch (const InputError& e) {
-        runtime_.stats().received();
-        runtime_.stats().dropped(dds::kDropMalformed);
-        runtime_.log().warn("stereo_frame: {}", e.what());
-        continue;
-      }
-      if (!frame_data_.info.payload_valid) {
-        if (frame_data_.info.end_of_stream && !end_of_stream_) runtime_.log().info("end of stream");
-        end_of_stream_ = end_of_stream_ || frame_data_.info.end_of_stream;
-        continue;
-      }
+  frame_reader_.takeAll([this](const sg_idl_StereoFrame& sample, const dds_sample_info_t& info) {
+    const auto gap = frame_gaps_.gapBefore(info.publication_handle, sample.header.sample_seq);
+    if (gap > 0) runtime_.stats().dropped(dds::kDropSuperseded, gap);
+    try {
+      dds::readStereoFrame(sample, frame_data_);
+    } catch (const InputError& e) {
       runtime_.stats().received();
-      server_.publishFrame(displayFrameKey(frame_data_.info), frame_data_.left, cv::Mat(), cv::Mat(),
-                           displayFrameName(frame_data_.info));
-      runtime_.stats().published(static_cast<double>(dds::realtimeNowNs() - frame_data_.info.capture_time_ns) / 1e6);
-      ++frames_handed_;
-      if (frame_data_.info.end_of_stream && !end_of_stream_) {
-        end_of_stream_ = true;
-        runtime_.log().info("end of stream");
-      }
+      runtime_.stats().dropped(dds::kDropMalformed);
+      runtime_.log().warn("stereo_frame: {}", e.what());
+      return;
     }
+    if (!frame_data_.info.payload_valid) {
+      if (frame_data_.info.end_of_stream && !end_of_stream_) runtime_.log().info("end of stream");
+      end_of_stream_ = end_of_stream_ || frame_data_.info.end_of_stream;
+      return;
+    }
+    runtime_.stats().received();
+    server_.publishFrame(displayFrameKey(frame_data_.info), frame_data_.left, cv::Mat(), cv::Mat(),
+                         displayFrameName(frame_data_.info));
+    runtime_.stats().published(static_cast<double>(dds::realtimeNowNs() - frame_data_.info.capture_time_ns) / 1e6);
+    ++frames_handed_;
+    if (frame_data_.info.end_of_stream && !end_of_stream_) {
+      end_of_stream_ = true;
+      runtime_.log().info("end of stream");
+    }
+  });
+}
+
+// Reads one result sample into `data`; false (counted, logged) when it is malformed or carries no payload.
+template <class Msg, class Data, class Read>
+bool DisplayService::readResult(const Msg& sample, Data& data, Read read, const char* topic) {
+  try {
+    read(sample, data);
+  } catch (const InputError& e) {
+    ++malformed_results_;
+    runtime_.log().warn("{}: {}", topic, e.what());
+    return false;
   }
+  return data.info.payload_valid;
 }
 
 void DisplayService::takeSegmentations() {
-  for (;;) {
-    auto samples = segmentation_reader_.take();
-    if (samples.size() == 0) return;
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-      if (!samples.valid(i)) continue;
-      try {
-        dds::readSegmentation(samples[i], segmentation_data_);
-      } catch (const InputError& e) {
-        ++malformed_results_;
-        runtime_.log().warn("segmentation: {}", e.what());
-        continue;
-      }
-      if (!segmentation_data_.info.payload_valid) continue;
-      ++segmentations_;
-      server_.publishLayers(displayFrameKey(segmentation_data_.info), segmentation_data_.result.labels,
-                            segmentation_data_.correlation, segmentation_data_.result.ground.offset_per_row);
-    }
-  }
+  segmentation_reader_.takeAll([this](const sg_idl_Segmentation& sample) {
+    if (!readResult(sample, segmentation_data_, dds::readSegmentation, "segmentation")) return;
+    ++segmentations_;
+    server_.publishLayers(displayFrameKey(segmentation_data_.info), segmentation_data_.result.labels,
+                          segmentation_data_.correlation, segmentation_data_.result.ground.offset_per_row);
+  });
 }
 
 void DisplayService::takeDetections() {
-  for (;;) {
-    auto samples = detections_reader_.take();
-    if (samples.size() == 0) return;
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-      if (!samples.valid(i)) continue;
-      try {
-        dds::readDetections(samples[i], detections_data_);
-      } catch (const InputError& e) {
-        ++malformed_results_;
-        runtime_.log().warn("human_detections: {}", e.what());
-        continue;
-      }
-      if (!detections_data_.info.payload_valid) continue;
-      ++detections_;
-      server_.publishResult(detectionsAsResult(detections_data_));
-    }
-  }
+  detections_reader_.takeAll([this](const sg_idl_HumanDetections& sample) {
+    if (!readResult(sample, detections_data_, dds::readDetections, "human_detections")) return;
+    ++detections_;
+    server_.publishResult(detectionsAsResult(detections_data_));
+  });
 }
 
 void DisplayService::takeMetrics() {
-  for (;;) {
-    auto samples = metrics_reader_.take();
-    if (samples.size() == 0) return;
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-      if (!samples.valid(i)) continue;
-      try {
-        server_.publishMetrics(metricsAsJson(dds::readStageMetrics(samples[i])));
-      } catch (const InputError& e) {
-        runtime_.log().warn("stage_metrics: {}", e.what());
-      }
+  metrics_reader_.takeAll([this](const sg_idl_StageMetrics& sample) {
+    try {
+      server_.publishMetrics(metricsAsJson(dds::readStageMetrics(sample)));
+    } catch (const InputError& e) {
+      runtime_.log().warn("stage_metrics: {}", e.what());
     }
-  }
+  });
 }
 
 }  // namespace sg

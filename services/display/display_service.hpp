@@ -66,18 +66,16 @@ class DisplayService {
   void takeSegmentations();
   void takeDetections();
   void takeMetrics();
+  template <class Msg, class Data, class Read>
+  bool readResult(const Msg& sample, Data& data, Read read, const char* topic);
 
   dds::ServiceRuntime& runtime_;
   CrewDisplayServer& server_;
   DisplayServiceParams params_;
-  dds::Topic<sg_idl_StereoFrame> frame_topic_;
-  dds::Topic<sg_idl_Segmentation> segmentation_topic_;
-  dds::Topic<sg_idl_HumanDetections> detections_topic_;
-  dds::Topic<sg_idl_StageMetrics> metrics_topic_;
-  dds::Reader<sg_idl_StereoFrame> frame_reader_;
-  dds::Reader<sg_idl_Segmentation> segmentation_reader_;
-  dds::Reader<sg_idl_HumanDetections> detections_reader_;
-  dds::Reader<sg_idl_StageMetrics> metrics_reader_;
+  dds::TopicReader<sg_idl_StereoFrame> frame_reader_;
+  dds::TopicReader<sg_idl_Segmentation> segmentation_reader_;
+  dds::TopicReader<sg_idl_HumanDetections> detections_reader_;
+  dds::TopicReader<sg_idl_StageMetrics> metrics_reader_;
   dds::SampleGapCounter frame_gaps_;
   dds::StereoFrameData frame_data_;         // reused across frames
   dds::SegmentationData segmentation_data_;

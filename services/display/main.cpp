@@ -19,6 +19,7 @@
 #include "dds/service.hpp"
 #include "demo_feeder.hpp"
 #include "display_service.hpp"
+#include "io/frame_source.hpp"
 
 int main(int argc, char** argv) {
   sg::dds::ShutdownSignal signals;  // first: every later thread inherits the blocked SIGINT/SIGTERM
@@ -37,7 +38,7 @@ int main(int argc, char** argv) {
         app.add_option("--bind", bind_address,
                        "address to listen on (overrides bind_address): 0.0.0.0 for vehicle screens, 127.0.0.1 local");
         app.add_flag("--demo", demo, "no DDS: show frames of --source with their ground truth as detections");
-        app.add_option("--source", demo_source, "with --demo: frame source SPEC (synthetic[:SEED], pairs:DIR, kitti:DIR)");
+        app.add_option("--source", demo_source, std::string("with --demo: ") + sg::kFrameSourceHelp);
         app.add_option("--rate", demo_rate_hz, "with --demo: frames per second")->check(CLI::Range(0.1, 1000.0));
         app.add_option("--cycle", demo_cycle, "with --demo: read N frames once and replay them (0 = read the source live)")
             ->check(CLI::Range(0, 1000));

@@ -25,12 +25,9 @@ LocalizationService::LocalizationService(dds::ShutdownSignal& signals, const Loc
     : params_(params),
       frame_limit_(frame_limit),
       runtime_(signals, "localization", params.transport),
-      frame_topic_(runtime_.participant(), dds::kStereoFrameTopic),
-      segmentation_topic_(runtime_.participant(), dds::kSegmentationTopic),
-      detections_topic_(runtime_.participant(), dds::kHumanDetectionsTopic),
-      frame_reader_(runtime_.participant(), frame_topic_, frameCacheQos(params)),
-      segmentation_reader_(runtime_.participant(), segmentation_topic_, params.transport.results),
-      writer_(runtime_.participant(), detections_topic_, params.transport.results),
+      frame_reader_(runtime_.participant(), dds::kStereoFrameTopic, frameCacheQos(params)),
+      segmentation_reader_(runtime_.participant(), dds::kSegmentationTopic, params.transport.results),
+      writer_(runtime_.participant(), dds::kHumanDetectionsTopic, params.transport.results),
       localizer_(params.localizer),
       tracker_(params.tracker) {
   runtime_.attach(frame_reader_.dataAvailable(), 1);

@@ -78,12 +78,9 @@ class LocalizationService {
   LocalizationServiceParams params_;
   std::uint64_t frame_limit_;
   dds::ServiceRuntime runtime_;
-  dds::Topic<sg_idl_StereoFrame> frame_topic_;
-  dds::Topic<sg_idl_Segmentation> segmentation_topic_;
-  dds::Topic<sg_idl_HumanDetections> detections_topic_;
-  dds::Reader<sg_idl_StereoFrame> frame_reader_;
-  dds::Reader<sg_idl_Segmentation> segmentation_reader_;
-  dds::Writer<sg_idl_HumanDetections> writer_;
+  dds::TopicReader<sg_idl_StereoFrame> frame_reader_;
+  dds::TopicReader<sg_idl_Segmentation> segmentation_reader_;
+  dds::TopicWriter<sg_idl_HumanDetections> writer_;
   HumanLocalizer localizer_;
   HumanTracker tracker_;
   struct CachedFrame {

@@ -9,24 +9,13 @@ namespace sg {
 
 namespace {
 
-dds::QosParams rosQos(const Ros2OutputParams& p) {
-  dds::QosParams q;
-  q.reliable = p.reliable;
-  q.history_depth = p.history_depth;
-  q.transient_local = false;
-  return q;
-}
-
-void fillStamp(std::int64_t ns, builtin_interfaces_msg_dds__Time_& out) {
-  out.sec = static_cast<std::int32_t>(ns / 1000000000);
-  out.nanosec = static_cast<std::uint32_t>(ns % 1000000000);
-}
+dds::QosParams rosQos(const Ros2OutputParams& p) { return dds::ros2Qos(p.reliable, p.history_depth); }
 
 }  // namespace
 
 void fillRos2Image(const cv::Mat& image, std::int64_t stamp_ns, const char* frame_id,
                    sensor_msgs_msg_dds__Image_& out) {
-  fillStamp(stamp_ns, out.header.stamp);
+  dds::fillRos2Stamp(stamp_ns, out.header.stamp);
   out.header.frame_id = const_cast<char*>(frame_id);
   out.height = static_cast<std::uint32_t>(image.rows);
   out.width = static_cast<std::uint32_t>(image.cols);
@@ -41,7 +30,7 @@ void fillRos2Image(const cv::Mat& image, std::int64_t stamp_ns, const char* fram
 void fillRos2CameraInfo(const StereoRig& rig, std::int64_t stamp_ns, const char* frame_id,
                         sensor_msgs_msg_dds__CameraInfo_& out) {
   static double no_distortion[5] = {0, 0, 0, 0, 0};
-  fillStamp(stamp_ns, out.header.stamp);
+  dds::fillRos2Stamp(stamp_ns, out.header.stamp);
   out.header.frame_id = const_cast<char*>(frame_id);
   out.height = static_cast<std::uint32_t>(rig.height);
   out.width = static_cast<std::uint32_t>(rig.width);
@@ -79,14 +68,10 @@ cv::Mat annotateLeft(const cv::Mat& left, const std::vector<HumanDetection>& det
 Ros2Bridge::Ros2Bridge(dds::ServiceRuntime& runtime, const Ros2BridgeParams& params)
     : runtime_(runtime),
       params_(params),
-      frame_topic_(runtime.participant(), dds::kStereoFrameTopic),
-      detections_topic_(runtime.participant(), dds::kHumanDetectionsTopic),
-      frame_reader_(runtime.participant(), frame_topic_, params.transport.images),
-      detections_reader_(runtime.participant(), detections_topic_, params.transport.results),
-      image_topic_(runtime.participant(), dds::kRos2AnnotatedImageTopic),
-      info_topic_(runtime.participant(), dds::kRos2CameraInfoTopic),
-      image_writer_(runtime.participant(), image_topic_, rosQos(params.ros2)),
-      info_writer_(runtime.participant(), info_topic_, rosQos(params.ros2)) {
+      frame_reader_(runtime.participant(), dds::kStereoFrameTopic, params.transport.images),
+      detections_reader_(runtime.participant(), dds::kHumanDetectionsTopic, params.transport.results),
+      image_writer_(runtime.participant(), dds::kRos2AnnotatedImageTopic, rosQos(params.ros2)),
+      info_writer_(runtime.participant(), dds::kRos2CameraInfoTopic, rosQos(params.ros2)) {
   runtime_.attach(frame_reader_.dataAvailable(), 1);
   runtime_.attach(detections_reader_.dataAvailable(), 2);
 }
@@ -111,37 +96,27 @@ void Ros2Bridge::run(std::uint64_t frames) {
   while (!runtime_.stopping() && !(frames > 0 && published_ >= frames)) {
     if (ended && pending_.empty()) break;
     runtime_.wait(Clock::now() + std::chrono::milliseconds(20));
-    for (;;) {
-      auto samples = frame_reader_.take();
-      if (samples.size() == 0) break;
-      for (std::size_t i = 0; i < samples.size(); ++i) {
-        if (!samples.valid(i)) continue;
-        Pending p;
-        dds::readStereoFrame(samples[i], p.frame);
-        if (p.frame.info.end_of_stream) ended = true;
-        if (!p.frame.info.payload_valid) continue;
-        runtime_.stats().received(1);
-        p.frame.left = p.frame.left.clone();  // own the pixels beyond the loan
-        p.arrived = Clock::now();
-        pending_.push_back(std::move(p));
-        if (pending_.size() > static_cast<std::size_t>(params_.ros2.pending_frames)) {
-          publish(pending_.front().frame, nullptr);
-          pending_.pop_front();
-        }
+    frame_reader_.takeAll([&](const sg_idl_StereoFrame& sample) {
+      Pending p;
+      dds::readStereoFrame(sample, p.frame);
+      if (p.frame.info.end_of_stream) ended = true;
+      if (!p.frame.info.payload_valid) return;
+      runtime_.stats().received(1);
+      p.frame.left = p.frame.left.clone();  // own the pixels beyond the loan
+      p.arrived = Clock::now();
+      pending_.push_back(std::move(p));
+      if (pending_.size() > static_cast<std::size_t>(params_.ros2.pending_frames)) {
+        publish(pending_.front().frame, nullptr);
+        pending_.pop_front();
       }
-    }
-    for (;;) {
-      auto samples = detections_reader_.take();
-      if (samples.size() == 0) break;
-      for (std::size_t i = 0; i < samples.size(); ++i) {
-        if (!samples.valid(i)) continue;
-        dds::DetectionsData d;
-        dds::readDetections(samples[i], d);
-        if (!d.info.payload_valid) continue;
-        early_detections_.push_back(std::move(d));
-        if (early_detections_.size() > 64) early_detections_.pop_front();
-      }
-    }
+    });
+    detections_reader_.takeAll([&](const sg_idl_HumanDetections& sample) {
+      dds::DetectionsData d;
+      dds::readDetections(sample, d);
+      if (!d.info.payload_valid) return;
+      early_detections_.push_back(std::move(d));
+      if (early_detections_.size() > 64) early_detections_.pop_front();
+    });
     // Join: a frame goes out with its detections, or without them after the timeout.
     const auto now = Clock::now();
     while (!pending_.empty()) {

@@ -80,14 +80,10 @@ class Ros2Bridge {
 
   dds::ServiceRuntime& runtime_;
   Ros2BridgeParams params_;
-  dds::Topic<sg_idl_StereoFrame> frame_topic_;
-  dds::Topic<sg_idl_HumanDetections> detections_topic_;
-  dds::Reader<sg_idl_StereoFrame> frame_reader_;
-  dds::Reader<sg_idl_HumanDetections> detections_reader_;
-  dds::Topic<sensor_msgs_msg_dds__Image_> image_topic_;
-  dds::Topic<sensor_msgs_msg_dds__CameraInfo_> info_topic_;
-  dds::Writer<sensor_msgs_msg_dds__Image_> image_writer_;
-  dds::Writer<sensor_msgs_msg_dds__CameraInfo_> info_writer_;
+  dds::TopicReader<sg_idl_StereoFrame> frame_reader_;
+  dds::TopicReader<sg_idl_HumanDetections> detections_reader_;
+  dds::TopicWriter<sensor_msgs_msg_dds__Image_> image_writer_;
+  dds::TopicWriter<sensor_msgs_msg_dds__CameraInfo_> info_writer_;
   std::deque<Pending> pending_;
   std::deque<dds::DetectionsData> early_detections_;  // detections that came before their frame
   std::uint64_t published_ = 0;

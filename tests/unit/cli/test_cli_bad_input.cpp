@@ -192,6 +192,35 @@ TEST_F(CliTest, DetectUnknownSourceKind) {
                  {"bogus"});
 }
 
+// Every source kind, as the shared help text and the unknown-kind error list them.
+const std::vector<std::string> kSourceKinds = {"synthetic[:SEED]", "pairs:DIR", "kitti:DIR",
+                                               "ros2:LEFT_IMAGE,RIGHT_IMAGE[,LEFT_INFO,RIGHT_INFO]"};
+
+TEST_F(CliTest, EveryCommandWithASourceListsEverySourceKind) {
+  for (const std::string command : {"run", "detect", "bench"}) {
+    const RunResult r = run({command, "--help"});
+    EXPECT_EQ(r.status, 0) << command << "\n" << r.err;
+    for (const auto& kind : kSourceKinds) EXPECT_NE(r.out.find(kind), std::string::npos) << command << "\n" << r.out;
+  }
+}
+
+TEST_F(CliTest, UnknownSourceKindListsTheValidKinds) {
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"run", "--source", "bogus:/somewhere", "--frames", "1", "--no-display"},
+        std::vector<std::string>{"detect", "--source", "bogus:/somewhere", "--frames", "1", "--out", path("d.jsonl")}}) {
+    const RunResult r = run(args);
+    expectBadInput(r, {"unknown kind 'bogus'"});
+    for (const auto& kind : kSourceKinds) {
+      EXPECT_NE(r.err.find(kind), std::string::npos) << args[0] << "\n" << r.err;
+    }
+  }
+}
+
+TEST_F(CliTest, DetectRefusesARos2SourceNamingTheAcquisitionStage) {
+  expectBadInput(run({"detect", "--source", "ros2:/l,/r", "--frames", "1", "--out", path("d.jsonl")}),
+                 {"ros2:/l,/r", "acquisition stage"});
+}
+
 TEST_F(CliTest, DetectMissingKittiDirectory) {
   expectBadInput(run({"detect", "--source", "kitti:" + path("no_dataset"), "--frames", "1", "--out", path("d.jsonl")}),
                  {"no_dataset", "not found"});

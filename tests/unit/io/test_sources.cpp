@@ -285,6 +285,19 @@ TEST(OpenFrameSource, BadSpecsNamed) {
   expectInputError([] { openFrameSource("synthetic:"); }, {"synthetic:"});
 }
 
+TEST(OpenFrameSource, UnknownKindListsEveryKindAndRos2IsLeftToAcquisition) {
+  expectInputError([] { openFrameSource("camera:/dev/video0"); }, {kFrameSourceKinds});
+  expectInputError([] { checkFrameSourceKind("camera:/dev/video0"); }, {"unknown kind 'camera'", kFrameSourceKinds});
+  for (const char* spec : {"synthetic", "synthetic:3", "pairs:D", "kitti:D", "ros2:/l,/r"}) {
+    EXPECT_NO_THROW(checkFrameSourceKind(spec)) << spec;
+  }
+  expectInputError([] { openFrameSource("ros2:/l,/r"); }, {"ros2:/l,/r", "acquisition stage"});
+  expectInputError([] { openFrameSource("ros2"); }, {kRos2SourceForm});
+  for (const char* kind : {"synthetic[:SEED]", "pairs:DIR", "kitti:DIR", kRos2SourceForm}) {
+    EXPECT_NE(std::string(kFrameSourceHelp).find(kind), std::string::npos) << kind;
+  }
+}
+
 TEST(OpenFrameSource, EmptyLeftFolderRejected) {
   TempDir dir;
   fs::create_directories(dir.path() + "/left");
