@@ -24,6 +24,10 @@ void useLoopbackDds() {
   if (uri == nullptr || uri[0] == '\0') setenv("CYCLONEDDS_URI", loopbackUri().c_str(), 1);
 }
 
+std::map<std::string, std::string> loopbackEnv(int domain) {
+  return {{"CYCLONEDDS_URI", loopbackUri()}, {"SG_DDS_DOMAIN", std::to_string(domain)}};
+}
+
 ChildProcess::ChildProcess(std::vector<std::string> argv, const std::map<std::string, std::string>& env,
                            const std::string& log_path) {
   std::vector<std::string> env_strings;
@@ -109,6 +113,17 @@ pid_t childMatching(pid_t pid, const std::string& needle) {
     if (cmdline.find(needle) != std::string::npos) return child;
   }
   return -1;
+}
+
+::testing::AssertionResult exitsWith(ChildProcess& child, int expected, std::chrono::milliseconds timeout,
+                                     const std::string& log) {
+  const auto status = child.waitFor(timeout);
+  if (!status) return ::testing::AssertionFailure() << "did not end within the time limit\n" << tail(log);
+  if (*status != expected) {
+    return ::testing::AssertionFailure() << "exit status " << *status << ", expected " << expected << "\n"
+                                         << tail(log);
+  }
+  return ::testing::AssertionSuccess();
 }
 
 std::string readFile(const std::string& path) {

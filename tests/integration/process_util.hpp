@@ -12,12 +12,16 @@
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
+
 namespace sg::test {
 
 // CYCLONEDDS_URI of this process: the repository's loopback configuration
 // (set when absent, so a test binary run by hand is safe too).
 std::string loopbackUri();
 void useLoopbackDds();
+// Environment of a child process on loopback DDS in `domain` (one domain per test).
+std::map<std::string, std::string> loopbackEnv(int domain);
 
 class ChildProcess {
  public:
@@ -43,6 +47,10 @@ class ChildProcess {
 std::vector<pid_t> childrenOf(pid_t pid);
 // First child of `pid` whose command line contains `needle`; -1 when none.
 pid_t childMatching(pid_t pid, const std::string& needle);
+
+// Success when `child` ends within `timeout` with status `expected`; the failure names the log.
+::testing::AssertionResult exitsWith(ChildProcess& child, int expected, std::chrono::milliseconds timeout,
+                                     const std::string& log);
 
 std::string readFile(const std::string& path);
 // Last `lines` lines of a log, for failure messages.

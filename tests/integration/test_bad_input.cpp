@@ -9,20 +9,14 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
-#include <optional>
 #include <set>
-#include <thread>
 #include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "dds/conversions.hpp"
-#include "dds/dds.hpp"
-#include "dds/stage_metrics.hpp"
-#include "dds/topics.hpp"
-#include "process_util.hpp"
+#include "stage_harness.hpp"
 
 namespace sg {
 namespace {
@@ -84,51 +78,26 @@ TEST(BadInput, AcquisitionCountsEachBadImageFileAndServesTheNextFrame) {
   writeBytes(dir + "/left/008.png", good_l);
   pair("009.png", good_l, good_r);
 
-  dds::Participant participant(kDomain);
-  dds::TransportParams transport;
-  dds::Topic<sg_idl_StereoFrame> frames_topic(participant, dds::kStereoFrameTopic);
-  dds::Topic<sg_idl_StageMetrics> metrics_topic(participant, dds::kStageMetricsTopic);
-  dds::QosParams keep_all = transport.images;
-  keep_all.history_depth = 16;
-  dds::Reader<sg_idl_StereoFrame> frames(participant, frames_topic, keep_all);
-  dds::Reader<sg_idl_StageMetrics> metrics(participant, metrics_topic, transport.metrics);
-
+  test::StageOutputs<sg_idl_StereoFrame> out(kDomain, dds::kStereoFrameTopic);
   const std::string log = std::string(SG_TEST_LOG_DIR) + "/bad_input_acquisition.log";
   test::ChildProcess stage({SG_ACQUISITION_EXE, "--source", "pairs:" + dir, "--rate", "20", "--min-readers", "1"},
-                           {{"SG_DDS_DOMAIN", std::to_string(kDomain)}, {"CYCLONEDDS_URI", test::loopbackUri()}}, log);
-  std::set<std::uint64_t> published;
+                           test::loopbackEnv(kDomain), log);
   bool end_seen = false;
-  dds::StageMetricsData last;
-  const auto deadline = std::chrono::steady_clock::now() + 60s;
-  std::optional<int> status;
-  while (std::chrono::steady_clock::now() < deadline && !(status && last.final_report)) {
-    auto samples = frames.take();
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-      if (!samples.valid(i)) continue;
-      dds::StereoFrameData d;
-      dds::readStereoFrame(samples[i], d);
-      if (d.info.end_of_stream) end_seen = true;
-      if (d.info.payload_valid) {
-        published.insert(d.info.frame_id);
-        EXPECT_EQ(d.left.size(), cv::Size(64, 48));
-      }
+  ASSERT_TRUE(out.finish(stage, log, 60s, [&](const sg_idl_StereoFrame& sample) {
+    dds::StereoFrameData d;
+    dds::readStereoFrame(sample, d);
+    if (d.info.end_of_stream) end_seen = true;
+    if (d.info.payload_valid) {
+      EXPECT_EQ(d.left.size(), cv::Size(64, 48));
     }
-    auto m = metrics.take();
-    for (std::size_t i = 0; i < m.size(); ++i) {
-      if (m.valid(i)) last = dds::readStageMetrics(m[i]);
-    }
-    if (!status) status = stage.waitFor(0ms);
-    std::this_thread::sleep_for(20ms);
-  }
-  ASSERT_TRUE(status.has_value()) << test::tail(log);
-  EXPECT_EQ(*status, 0) << test::tail(log);
+  }));
   EXPECT_TRUE(end_seen);
-  EXPECT_EQ(published, (std::set<std::uint64_t>{0, 6, 7, 9})) << test::tail(log);
-  EXPECT_TRUE(last.final_report);
-  EXPECT_EQ(last.frames_received, 10u);
-  EXPECT_EQ(last.frames_published, 4u);
-  EXPECT_EQ(last.dropped[dds::kDropSourceError], bad.size());
-  EXPECT_EQ(last.frames_received, last.frames_published + last.droppedTotal());
+  EXPECT_EQ(out.published, (std::set<std::uint64_t>{0, 6, 7, 9})) << test::tail(log);
+  EXPECT_TRUE(out.last.final_report);
+  EXPECT_EQ(out.last.frames_received, 10u);
+  EXPECT_EQ(out.last.frames_published, 4u);
+  EXPECT_EQ(out.last.dropped[dds::kDropSourceError], bad.size());
+  EXPECT_EQ(out.last.frames_received, out.last.frames_published + out.last.droppedTotal());
   const std::string text = test::readFile(log);
   for (const auto& [name, what, message] : bad) {
     EXPECT_NE(text.find(name), std::string::npos) << what << ": the file is not named\n" << text;
@@ -154,27 +123,13 @@ TEST(BadInput, StageWithOutOfRangeOrMistypedConfigurationStopsWithStatus2NamingT
     const std::string path = dir + "/" + c.name;
     writeBytes(path, c.yaml);
     const std::string log = dir + "/" + c.name + ".log";
-    test::ChildProcess stage({SG_FEATURES_EXE, "--config", path, "--frames", "1"},
-                             {{"SG_DDS_DOMAIN", std::to_string(kConfigDomain)}, {"CYCLONEDDS_URI", test::loopbackUri()}},
+    test::ChildProcess stage({SG_FEATURES_EXE, "--config", path, "--frames", "1"}, test::loopbackEnv(kConfigDomain),
                              log);
-    const auto status = stage.waitFor(30s);
-    ASSERT_TRUE(status.has_value());
-    EXPECT_EQ(*status, 2) << test::tail(log);
+    EXPECT_TRUE(test::exitsWith(stage, 2, 30s, log));
     const std::string text = test::readFile(log);
     EXPECT_NE(text.find(path), std::string::npos) << text;
     EXPECT_NE(text.find(c.expected), std::string::npos) << text;
   }
-}
-
-
-template <class Pred>
-bool waitUntil(std::chrono::milliseconds timeout, Pred pred) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < deadline) {
-    if (pred()) return true;
-    std::this_thread::sleep_for(10ms);
-  }
-  return false;
 }
 
 StereoRig smallRig() {
@@ -190,67 +145,16 @@ StereoRig smallRig() {
 }
 
 dds::StereoFrameData smallFrame(std::uint64_t id, bool last) {
-  dds::StereoFrameData d;
-  d.info.frame_id = id;
-  d.info.capture_time_ns = dds::realtimeNowNs();
-  d.info.source = "bad" + std::to_string(id);
-  d.info.sample_seq = id;
-  d.info.end_of_stream = last;
-  d.rig = smallRig();
-  d.left = noise(64, 48, CV_8UC1, static_cast<int>(2 * id + 1));
-  d.right = noise(64, 48, CV_8UC1, static_cast<int>(2 * id + 2));
-  return d;
+  return test::noiseFrame(id, last, smallRig(), "bad" + std::to_string(id));
 }
-
-// Writes samples and reads what a stage published and its last StageMetrics.
-template <class In, class Out>
-struct StageHarness {
-  StageHarness(int domain, const char* in_name, const char* out_name)
-      : participant(domain),
-        in_topic(participant, in_name),
-        out_topic(participant, out_name),
-        metrics_topic(participant, dds::kStageMetricsTopic),
-        writer(participant, in_topic, in_name == std::string(dds::kStereoFrameTopic) ? transport.images
-                                                                                      : transport.results),
-        reader(participant, out_topic,
-               keepAll(out_name == std::string(dds::kFeatureFrameTopic) ? transport.images : transport.results)),
-        metrics(participant, metrics_topic, transport.metrics) {}
-
-  static dds::QosParams keepAll(dds::QosParams q) {
-    q.history_depth = 16;
-    return q;
-  }
-  void collect(std::set<std::uint64_t>& ids) {
-    auto samples = reader.take();
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-      if (samples.valid(i) && samples[i].header.payload_valid) ids.insert(samples[i].header.frame_id);
-    }
-    auto m = metrics.take();
-    for (std::size_t i = 0; i < m.size(); ++i) {
-      if (m.valid(i)) last = dds::readStageMetrics(m[i]);
-    }
-  }
-
-  dds::TransportParams transport;
-  dds::Participant participant;
-  dds::Topic<In> in_topic;
-  dds::Topic<Out> out_topic;
-  dds::Topic<sg_idl_StageMetrics> metrics_topic;
-  dds::Writer<In> writer;
-  dds::Reader<Out> reader;
-  dds::Reader<sg_idl_StageMetrics> metrics;
-  dds::StageMetricsData last;
-};
 
 TEST(BadInput, FeaturesDropsNanRigNegativeBaselineAndWrongDepthSamplesAndKeepsServing) {
   test::useLoopbackDds();
   const std::string log = std::string(SG_TEST_LOG_DIR) + "/bad_input_features.log";
-  StageHarness<sg_idl_StereoFrame, sg_idl_FeatureFrame> h(kFeaturesDomain, dds::kStereoFrameTopic, dds::kFeatureFrameTopic);
-  test::ChildProcess stage({SG_FEATURES_EXE, "--frames", "5"},
-                           {{"SG_DDS_DOMAIN", std::to_string(kFeaturesDomain)}, {"CYCLONEDDS_URI", test::loopbackUri()}}, log);
-  ASSERT_TRUE(h.writer.waitForReaders(1, 20s, [] { return false; })) << test::tail(log);
-  ASSERT_TRUE(waitUntil(20s, [&] { return h.reader.matchedWriters() >= 1; })) << test::tail(log);
-  std::set<std::uint64_t> published;
+  test::StageHarness<sg_idl_StereoFrame, sg_idl_FeatureFrame> h(kFeaturesDomain, dds::kStereoFrameTopic,
+                                                                 dds::kFeatureFrameTopic);
+  test::ChildProcess stage({SG_FEATURES_EXE, "--frames", "5"}, test::loopbackEnv(kFeaturesDomain), log);
+  ASSERT_TRUE(h.connected(log));
   sg_idl_StereoFrame msg{};
   // 0 valid; 1 NaN focal length; 2 negative baseline; 3 a 16-bit image (2 bytes a pixel) declared
   // as mono8 64x48; 4 valid, the last. Each write waits until the stage has dealt with the previous one.
@@ -265,17 +169,10 @@ TEST(BadInput, FeaturesDropsNanRigNegativeBaselineAndWrongDepthSamplesAndKeepsSe
       msg.left._buffer = const_cast<std::uint8_t*>(deep.ptr<std::uint8_t>());
       msg.left._length = msg.left._maximum = static_cast<std::uint32_t>(deep.total() * deep.elemSize());
     }
-    h.writer.write(msg);
-    ASSERT_TRUE(waitUntil(10s, [&] {
-      h.collect(published);
-      return h.last.frames_received >= id + 1 || published.count(id) > 0;
-    })) << "frame " << id << "\n" << test::tail(log);
+    ASSERT_TRUE(h.writeAndWait(msg, id, log));
   }
-  const auto status = stage.waitFor(20s);
-  ASSERT_TRUE(status.has_value()) << test::tail(log);
-  EXPECT_EQ(*status, 0) << test::tail(log);
-  waitUntil(5s, [&] { h.collect(published); return h.last.final_report; });
-  EXPECT_EQ(published, (std::set<std::uint64_t>{0, 4}));
+  ASSERT_TRUE(h.finish(stage, log));
+  EXPECT_EQ(h.published, (std::set<std::uint64_t>{0, 4}));
   EXPECT_TRUE(h.last.final_report);
   EXPECT_EQ(h.last.frames_received, 5u);
   EXPECT_EQ(h.last.dropped["malformed"], 3u);
@@ -288,15 +185,12 @@ TEST(BadInput, FeaturesDropsNanRigNegativeBaselineAndWrongDepthSamplesAndKeepsSe
 TEST(BadInput, LocalizationDropsASegmentationWithAbsurdBoxOrOffsetAndKeepsServing) {
   test::useLoopbackDds();
   const std::string log = std::string(SG_TEST_LOG_DIR) + "/bad_input_localization.log";
-  StageHarness<sg_idl_Segmentation, sg_idl_HumanDetections> h(kLocalizationDomain, dds::kSegmentationTopic, dds::kHumanDetectionsTopic);
-  dds::Topic<sg_idl_StereoFrame> frame_topic(h.participant, dds::kStereoFrameTopic);
-  dds::Writer<sg_idl_StereoFrame> frame_writer(h.participant, frame_topic, h.transport.images);
-  test::ChildProcess stage({SG_LOCALIZATION_EXE, "--frames", "4"},
-                           {{"SG_DDS_DOMAIN", std::to_string(kLocalizationDomain)}, {"CYCLONEDDS_URI", test::loopbackUri()}}, log);
-  ASSERT_TRUE(h.writer.waitForReaders(1, 20s, [] { return false; })) << test::tail(log);
+  test::StageHarness<sg_idl_Segmentation, sg_idl_HumanDetections> h(kLocalizationDomain, dds::kSegmentationTopic,
+                                                                     dds::kHumanDetectionsTopic);
+  dds::TopicWriter<sg_idl_StereoFrame> frame_writer(h.participant, dds::kStereoFrameTopic, h.transport.images);
+  test::ChildProcess stage({SG_LOCALIZATION_EXE, "--frames", "4"}, test::loopbackEnv(kLocalizationDomain), log);
+  ASSERT_TRUE(h.connected(log));
   ASSERT_TRUE(frame_writer.waitForReaders(1, 20s, [] { return false; })) << test::tail(log);
-  ASSERT_TRUE(waitUntil(20s, [&] { return h.reader.matchedWriters() >= 1; })) << test::tail(log);
-  std::set<std::uint64_t> published;
   // 0 valid; 1 an obstacle box beyond the image; 2 an obstacle offset beyond the width; 3 valid, the last.
   dds::SegmentationEncoder encoder;
   for (std::uint64_t id = 0; id < 4; ++id) {
@@ -323,17 +217,10 @@ TEST(BadInput, LocalizationDropsASegmentationWithAbsurdBoxOrOffsetAndKeepsServin
     if (id == 1) bad.box.right = 1.0e6f;
     if (id == 2) bad.offset_px = bad.max_offset_px = 5000;
     if (id == 1 || id == 2) msg.obstacles._buffer = &bad;
-    h.writer.write(msg);
-    ASSERT_TRUE(waitUntil(10s, [&] {
-      h.collect(published);
-      return h.last.frames_received >= id + 1 || published.count(id) > 0;
-    })) << "frame " << id << "\n" << test::tail(log);
+    ASSERT_TRUE(h.writeAndWait(msg, id, log));
   }
-  const auto status = stage.waitFor(20s);
-  ASSERT_TRUE(status.has_value()) << test::tail(log);
-  EXPECT_EQ(*status, 0) << test::tail(log);
-  waitUntil(5s, [&] { h.collect(published); return h.last.final_report; });
-  EXPECT_EQ(published, (std::set<std::uint64_t>{0, 3}));
+  ASSERT_TRUE(h.finish(stage, log));
+  EXPECT_EQ(h.published, (std::set<std::uint64_t>{0, 3}));
   EXPECT_EQ(h.last.frames_received, 4u);
   EXPECT_EQ(h.last.dropped["malformed"], 2u);
   const std::string text = test::readFile(log);

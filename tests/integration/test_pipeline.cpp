@@ -33,33 +33,23 @@ class Observer {
  public:
   explicit Observer(int domain)
       : participant_(static_cast<dds_domainid_t>(domain)),
-        detections_topic_(participant_, dds::kHumanDetectionsTopic),
-        segmentation_topic_(participant_, dds::kSegmentationTopic),
-        detections_(participant_, detections_topic_, transport_.results),
-        segmentation_(participant_, segmentation_topic_, transport_.results) {}
+        detections_(participant_, dds::kHumanDetectionsTopic, transport_.results),
+        segmentation_(participant_, dds::kSegmentationTopic, transport_.results) {}
 
   void poll() {
-    for (;;) {
-      auto samples = detections_.take();
-      if (samples.size() == 0) break;
-      for (std::size_t i = 0; i < samples.size(); ++i) {
-        if (!samples.valid(i) || !samples[i].header.payload_valid) continue;
-        dds::DetectionsData d;
-        dds::readDetections(samples[i], d);
-        arrival[d.info.frame_id] = Clock::now();
-        detections[d.info.frame_id] = std::move(d);
-      }
-    }
-    for (;;) {
-      auto samples = segmentation_.take();
-      if (samples.size() == 0) break;
-      for (std::size_t i = 0; i < samples.size(); ++i) {
-        if (!samples.valid(i) || !samples[i].header.payload_valid) continue;
-        dds::SegmentationData s;
-        dds::readSegmentation(samples[i], s);
-        segmentations[s.info.frame_id] = std::move(s);
-      }
-    }
+    detections_.takeAll([&](const sg_idl_HumanDetections& sample) {
+      if (!sample.header.payload_valid) return;
+      dds::DetectionsData d;
+      dds::readDetections(sample, d);
+      arrival[d.info.frame_id] = Clock::now();
+      detections[d.info.frame_id] = std::move(d);
+    });
+    segmentation_.takeAll([&](const sg_idl_Segmentation& sample) {
+      if (!sample.header.payload_valid) return;
+      dds::SegmentationData s;
+      dds::readSegmentation(sample, s);
+      segmentations[s.info.frame_id] = std::move(s);
+    });
   }
 
   std::map<std::uint64_t, dds::DetectionsData> detections;
@@ -69,15 +59,9 @@ class Observer {
  private:
   dds::TransportParams transport_;
   dds::Participant participant_;
-  dds::Topic<sg_idl_HumanDetections> detections_topic_;
-  dds::Topic<sg_idl_Segmentation> segmentation_topic_;
-  dds::Reader<sg_idl_HumanDetections> detections_;
-  dds::Reader<sg_idl_Segmentation> segmentation_;
+  dds::TopicReader<sg_idl_HumanDetections> detections_;
+  dds::TopicReader<sg_idl_Segmentation> segmentation_;
 };
-
-std::map<std::string, std::string> childEnv(int domain) {
-  return {{"CYCLONEDDS_URI", test::loopbackUri()}, {"SG_DDS_DOMAIN", std::to_string(domain)}};
-}
 
 bool near(double a, double b, double tol) { return std::abs(a - b) <= tol * std::max(1.0, std::abs(b)); }
 
@@ -94,7 +78,7 @@ TEST(Pipeline, DetectionsEqualOfflineDetectAndEveryFrameIsAccountedFor) {
   test::ChildProcess run({SG_STEREOGUARD_EXE, "run", "--no-display", "--no-table", "--source", "synthetic:11",
                           "--frames", std::to_string(frames), "--rate", "2", "--domain", std::to_string(kDomain),
                           "--summary-json", summary_path},
-                         childEnv(kDomain), run_log);
+                         test::loopbackEnv(kDomain), run_log);
   std::optional<int> status;
   const auto deadline = Clock::now() + 300s;
   while (!(status = run.waitFor(100ms)) && Clock::now() < deadline) observer.poll();
@@ -115,10 +99,8 @@ TEST(Pipeline, DetectionsEqualOfflineDetectAndEveryFrameIsAccountedFor) {
   const std::string jsonl = dir + "/pipeline_detect.jsonl";
   test::ChildProcess detect({SG_STEREOGUARD_EXE, "detect", "--source", "synthetic:11", "--frames",
                              std::to_string(frames), "--out", jsonl},
-                            childEnv(kDomain), dir + "/pipeline_detect.log");
-  const auto detect_status = detect.waitFor(300s);
-  ASSERT_TRUE(detect_status.has_value());
-  ASSERT_EQ(*detect_status, 0) << test::tail(dir + "/pipeline_detect.log");
+                            test::loopbackEnv(kDomain), dir + "/pipeline_detect.log");
+  ASSERT_TRUE(test::exitsWith(detect, 0, 300s, dir + "/pipeline_detect.log"));
   const std::vector<FrameRecord> records = readFrameRecords(jsonl);
   ASSERT_EQ(records.size(), static_cast<std::size_t>(frames));
 
@@ -168,7 +150,7 @@ TEST(Pipeline, KilledStageIsRestartedAndFramesFlowAgainWithinTwoSeconds) {
   test::ChildProcess run({SG_STEREOGUARD_EXE, "run", "--no-display", "--no-table", "--source", "synthetic:3",
                           "--preload", "3", "--rate", "5", "--domain", std::to_string(kDomain), "--summary-json",
                           summary_path},
-                         childEnv(kDomain), run_log);
+                         test::loopbackEnv(kDomain), run_log);
   auto waitFrames = [&](std::size_t n, std::chrono::seconds timeout) {
     const auto deadline = Clock::now() + timeout;
     while (observer.detections.size() < n && Clock::now() < deadline && run.running()) {
@@ -207,9 +189,7 @@ TEST(Pipeline, KilledStageIsRestartedAndFramesFlowAgainWithinTwoSeconds) {
   EXPECT_NE(replacement, victim);
 
   run.signal(SIGTERM);  // forwarded to every stage; the launcher ends cleanly
-  const auto status = run.waitFor(30s);
-  ASSERT_TRUE(status.has_value()) << test::tail(run_log);
-  EXPECT_EQ(*status, 0) << test::tail(run_log);
+  ASSERT_TRUE(test::exitsWith(run, 0, 30s, run_log));
   const nlohmann::json summary = nlohmann::json::parse(test::readFile(summary_path));
   EXPECT_EQ(summary["restarts"]["segmentation"].get<int>(), 1) << summary.dump(2);
   EXPECT_TRUE(summary["interrupted"].get<bool>());

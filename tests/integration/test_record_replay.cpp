@@ -30,10 +30,6 @@ constexpr int kReplayDomain = 202;
 constexpr int kFrames = 4;
 constexpr const char* kSource = "synthetic:5";
 
-std::map<std::string, std::string> childEnv(int domain) {
-  return {{"CYCLONEDDS_URI", test::loopbackUri()}, {"SG_DDS_DOMAIN", std::to_string(domain)}};
-}
-
 std::vector<nlohmann::json> readLines(const fs::path& path) {
   std::vector<nlohmann::json> lines;
   std::ifstream in(path);
@@ -47,12 +43,6 @@ bool identical(const cv::Mat& a, const cv::Mat& b) {
   return a.size() == b.size() && a.type() == b.type() && cv::countNonZero(a != b) == 0;
 }
 
-void expectExit0(test::ChildProcess& child, std::chrono::milliseconds timeout, const std::string& log) {
-  const auto status = child.waitFor(timeout);
-  ASSERT_TRUE(status.has_value()) << "did not end within the time limit\n" << test::tail(log);
-  EXPECT_EQ(*status, 0) << test::tail(log);
-}
-
 TEST(RecordReplay, ReplayedRecordingIsBitExactWithFrameIdsAndTimestampsInOrder) {
   test::useLoopbackDds();
   const fs::path dir = fs::path(SG_TEST_LOG_DIR) / ("record_replay_" + std::to_string(::getpid()));
@@ -64,21 +54,21 @@ TEST(RecordReplay, ReplayedRecordingIsBitExactWithFrameIdsAndTimestampsInOrder) 
   {  // 1. acquisition -> record rec1
     test::ChildProcess record({SG_STEREOGUARD_EXE, "record", "--out", rec1.string(), "--frames",
                                std::to_string(kFrames), "--duration", "60"},
-                              childEnv(kRecordDomain), logs + "/record1.log");
+                              test::loopbackEnv(kRecordDomain), logs + "/record1.log");
     test::ChildProcess acquisition({SG_ACQUISITION_EXE, "--source", kSource, "--frames", std::to_string(kFrames),
                                     "--rate", "4", "--min-readers", "1"},
-                                   childEnv(kRecordDomain), logs + "/record_acquisition.log");
-    expectExit0(acquisition, 90s, logs + "/record_acquisition.log");
-    expectExit0(record, 30s, logs + "/record1.log");
+                                   test::loopbackEnv(kRecordDomain), logs + "/record_acquisition.log");
+    EXPECT_TRUE(test::exitsWith(acquisition, 0, 90s, logs + "/record_acquisition.log"));
+    EXPECT_TRUE(test::exitsWith(record, 0, 30s, logs + "/record1.log"));
   }
   {  // 2. replay rec1 -> record rec2
     test::ChildProcess record({SG_STEREOGUARD_EXE, "record", "--out", rec2.string(), "--frames",
                                std::to_string(kFrames), "--duration", "60"},
-                              childEnv(kReplayDomain), logs + "/record2.log");
+                              test::loopbackEnv(kReplayDomain), logs + "/record2.log");
     test::ChildProcess replay({SG_STEREOGUARD_EXE, "replay", rec1.string(), "--rate", "4", "--original-timestamps"},
-                              childEnv(kReplayDomain), logs + "/replay.log");
-    expectExit0(replay, 90s, logs + "/replay.log");
-    expectExit0(record, 30s, logs + "/record2.log");
+                              test::loopbackEnv(kReplayDomain), logs + "/replay.log");
+    EXPECT_TRUE(test::exitsWith(replay, 0, 90s, logs + "/replay.log"));
+    EXPECT_TRUE(test::exitsWith(record, 0, 30s, logs + "/record2.log"));
   }
 
   const auto frames1 = readLines(rec1 / "frames.jsonl");
@@ -126,10 +116,8 @@ TEST(RecordReplay, ReplayOfAFolderWithoutRecordingExits2) {
   const fs::path dir = fs::path(SG_TEST_LOG_DIR) / ("not_a_recording_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   const std::string log = std::string(SG_TEST_LOG_DIR) + "/replay_bad.log";
-  test::ChildProcess replay({SG_STEREOGUARD_EXE, "replay", dir.string()}, childEnv(kReplayDomain), log);
-  const auto status = replay.waitFor(30s);
-  ASSERT_TRUE(status.has_value());
-  EXPECT_EQ(*status, 2);
+  test::ChildProcess replay({SG_STEREOGUARD_EXE, "replay", dir.string()}, test::loopbackEnv(kReplayDomain), log);
+  EXPECT_TRUE(test::exitsWith(replay, 2, 30s, log));
   EXPECT_NE(test::readFile(log).find("frames.jsonl"), std::string::npos) << test::readFile(log);
   fs::remove_all(dir);
 }

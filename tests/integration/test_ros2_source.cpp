@@ -10,18 +10,13 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
-#include <thread>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "dds/conversions.hpp"
-#include "dds/dds.hpp"
 #include "dds/ros2_messages.hpp"
-#include "dds/stage_metrics.hpp"
-#include "dds/topics.hpp"
 #include "io/frame_source.hpp"
-#include "process_util.hpp"
+#include "stage_harness.hpp"
 
 namespace sg {
 namespace {
@@ -31,15 +26,7 @@ using namespace std::chrono_literals;
 constexpr int kDomain = 211;
 constexpr std::int64_t kStamp0 = 1700000000LL * 1000000000LL;
 
-template <class Pred>
-bool waitUntil(std::chrono::milliseconds timeout, Pred pred) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < deadline) {
-    if (pred()) return true;
-    std::this_thread::sleep_for(10ms);
-  }
-  return false;
-}
+using test::waitUntil;
 
 std::string stampName(std::int64_t ns) {
   char text[40];
@@ -94,50 +81,41 @@ TEST(Ros2Source, StereoImagesFromRos2TopicsBecomeStereoFrames) {
   for (auto& s : scenes) ASSERT_TRUE(source->next(s));
   const StereoRig rig = scenes[0].rig;
 
-  dds::Participant participant(kDomain);
+  // What acquisition publishes (frames and its StageMetrics), on the participant that also plays the camera.
+  test::StageOutputs<sg_idl_StereoFrame> out(kDomain, dds::kStereoFrameTopic);
+  out.stage = "acquisition";
+  dds::Participant& participant = out.participant;
   dds::QosParams ros_qos;  // ROS 2 default profile: reliable, volatile
   ros_qos.history_depth = 10;
-  dds::Topic<sensor_msgs_msg_dds__Image_> left_topic(participant, "rt/test_cam/left/image_rect");
-  dds::Topic<sensor_msgs_msg_dds__Image_> right_topic(participant, "rt/test_cam/right/image_rect");
-  dds::Topic<sensor_msgs_msg_dds__CameraInfo_> left_info_topic(participant, "rt/test_cam/left/camera_info");
-  dds::Topic<sensor_msgs_msg_dds__CameraInfo_> right_info_topic(participant, "rt/test_cam/right/camera_info");
-  dds::Writer<sensor_msgs_msg_dds__Image_> left_writer(participant, left_topic, ros_qos);
-  dds::Writer<sensor_msgs_msg_dds__Image_> right_writer(participant, right_topic, ros_qos);
-  dds::Writer<sensor_msgs_msg_dds__CameraInfo_> left_info_writer(participant, left_info_topic, ros_qos);
-  dds::Writer<sensor_msgs_msg_dds__CameraInfo_> right_info_writer(participant, right_info_topic, ros_qos);
-
-  dds::TransportParams transport;
-  dds::Topic<sg_idl_StereoFrame> frame_topic(participant, dds::kStereoFrameTopic);
-  dds::Topic<sg_idl_StageMetrics> metrics_topic(participant, dds::kStageMetricsTopic);
-  dds::QosParams all_frames = transport.images;
-  all_frames.history_depth = 8;  // the test reads every frame acquisition published
-  dds::Reader<sg_idl_StereoFrame> frames(participant, frame_topic, all_frames);
-  dds::Reader<sg_idl_StageMetrics> metrics(participant, metrics_topic, transport.metrics);
+  dds::TopicWriter<sensor_msgs_msg_dds__Image_> left_writer(participant, "rt/test_cam/left/image_rect", ros_qos);
+  dds::TopicWriter<sensor_msgs_msg_dds__Image_> right_writer(participant, "rt/test_cam/right/image_rect", ros_qos);
+  dds::TopicWriter<sensor_msgs_msg_dds__CameraInfo_> left_info_writer(participant, "rt/test_cam/left/camera_info",
+                                                                      ros_qos);
+  dds::TopicWriter<sensor_msgs_msg_dds__CameraInfo_> right_info_writer(participant, "rt/test_cam/right/camera_info",
+                                                                       ros_qos);
 
   test::ChildProcess acquisition(
       {SG_ACQUISITION_EXE, "--source",
        "ros2:/test_cam/left/image_rect,/test_cam/right/image_rect,/test_cam/left/camera_info,"
        "/test_cam/right/camera_info",
        "--frames", "4", "--config", config, "--min-readers", "1"},
-      {{"SG_DDS_DOMAIN", std::to_string(kDomain)}, {"CYCLONEDDS_URI", test::loopbackUri()}}, log);
+      test::loopbackEnv(kDomain), log);
   for (auto* w : {&left_writer, &right_writer}) {
     ASSERT_TRUE(w->waitForReaders(1, 20s, [] { return false; })) << test::tail(log);
   }
   ASSERT_TRUE(left_info_writer.waitForReaders(1, 20s, [] { return false; })) << test::tail(log);
   ASSERT_TRUE(right_info_writer.waitForReaders(1, 20s, [] { return false; })) << test::tail(log);
-  ASSERT_TRUE(waitUntil(20s, [&] { return frames.matchedWriters() >= 1; })) << test::tail(log);
+  ASSERT_TRUE(waitUntil(20s, [&] { return out.reader.matchedWriters() >= 1; })) << test::tail(log);
 
   std::vector<dds::StereoFrameData> received;
-  auto collect = [&] {
-    auto samples = frames.take();
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-      if (!samples.valid(i) || !samples[i].header.payload_valid) continue;
-      dds::StereoFrameData f;
-      dds::readStereoFrame(samples[i], f);
-      if (f.info.source.rfind("1700000000.", 0) != 0) continue;  // not this test's camera
-      received.push_back(std::move(f));
-    }
+  const auto keep = [&](const sg_idl_StereoFrame& sample) {
+    if (!sample.header.payload_valid) return;
+    dds::StereoFrameData f;
+    dds::readStereoFrame(sample, f);
+    if (f.info.source.rfind("1700000000.", 0) != 0) return;  // not this test's camera
+    received.push_back(std::move(f));
   };
+  auto collect = [&] { out.collect(keep); };
 
   // Calibration first, as a driver latches it.
   const auto left_info = cameraInfo(rig, 0.0);
@@ -168,9 +146,8 @@ TEST(Ros2Source, StereoImagesFromRos2TopicsBecomeStereoFrames) {
   right_writer.write(image(scenes[2].right, "mono8", t_d));
   ASSERT_TRUE(waitUntil(20s, [&] { collect(); return received.size() == 3; })) << test::tail(log);
 
-  const auto status = acquisition.waitFor(20s);
-  ASSERT_TRUE(status.has_value()) << "acquisition did not stop after --frames 4\n" << test::tail(log);
-  EXPECT_EQ(*status, 0) << test::tail(log);
+  ASSERT_TRUE(out.finish(acquisition, log, 20s, keep)) << "acquisition did not stop cleanly after --frames 4";
+  ASSERT_EQ(received.size(), 3u);
 
   // Frame ids 0, 2, 3: id 1 went to the rejected image.
   const std::uint64_t ids[] = {0, 2, 3};
@@ -192,17 +169,7 @@ TEST(Ros2Source, StereoImagesFromRos2TopicsBecomeStereoFrames) {
   }
   EXPECT_TRUE(received[2].info.end_of_stream);
 
-  dds::StageMetricsData last;
-  waitUntil(10s, [&] {
-    auto samples = metrics.take();
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-      if (samples.valid(i)) {
-        const auto m = dds::readStageMetrics(samples[i]);
-        if (m.stage == "acquisition") last = m;
-      }
-    }
-    return last.final_report;
-  });
+  dds::StageMetricsData last = out.last;
   ASSERT_TRUE(last.final_report) << test::tail(log);
   EXPECT_EQ(last.frames_received, 4u);
   EXPECT_EQ(last.frames_published, 3u);
@@ -215,12 +182,8 @@ TEST(Ros2Source, BadSourceSpecIsABadUsageError) {
   test::useLoopbackDds();
   const std::string log = std::string(SG_TEST_LOG_DIR) + "/acquisition_ros2_bad_spec.log";
   test::ChildProcess acquisition({SG_ACQUISITION_EXE, "--source", "ros2:/only/left", "--frames", "1"},
-                                 {{"SG_DDS_DOMAIN", std::to_string(kDomain + 1)},
-                                  {"CYCLONEDDS_URI", test::loopbackUri()}},
-                                 log);
-  const auto status = acquisition.waitFor(20s);
-  ASSERT_TRUE(status.has_value());
-  EXPECT_EQ(*status, 2) << test::tail(log);
+                                 test::loopbackEnv(kDomain + 1), log);
+  EXPECT_TRUE(test::exitsWith(acquisition, 2, 20s, log));
   EXPECT_NE(test::readFile(log).find("expected ros2:LEFT_IMAGE,RIGHT_IMAGE[,LEFT_INFO,RIGHT_INFO] (1 topic name(s) given)"),
             std::string::npos)
       << test::tail(log);

@@ -49,18 +49,12 @@ class DetectionObserver {
  public:
   DetectionObserver()
       : participant_(static_cast<dds_domainid_t>(kDomain)),
-        topic_(participant_, dds::kHumanDetectionsTopic),
-        reader_(participant_, topic_, transport_.results) {}
+        reader_(participant_, dds::kHumanDetectionsTopic, transport_.results) {}
 
   void poll() {
-    for (;;) {
-      auto samples = reader_.take();
-      if (samples.size() == 0) break;
-      for (std::size_t i = 0; i < samples.size(); ++i) {
-        if (!samples.valid(i) || !samples[i].header.payload_valid) continue;
-        arrivals.push_back({Clock::now(), samples[i].header.capture_time_ns});
-      }
-    }
+    reader_.takeAll([&](const sg_idl_HumanDetections& sample) {
+      if (sample.header.payload_valid) arrivals.push_back({Clock::now(), sample.header.capture_time_ns});
+    });
   }
 
   std::vector<Arrival> arrivals;
@@ -68,8 +62,7 @@ class DetectionObserver {
  private:
   dds::TransportParams transport_;
   dds::Participant participant_;
-  dds::Topic<sg_idl_HumanDetections> topic_;
-  dds::Reader<sg_idl_HumanDetections> reader_;
+  dds::TopicReader<sg_idl_HumanDetections> reader_;
 };
 
 // The repository's configuration with StageMetrics every 0.1 s instead of 1 s:
@@ -137,7 +130,7 @@ TEST(StageRestarts, EveryStageKilledInTurnIsRestartedAndDetectionsFlowAgainWithi
   test::ChildProcess run({SG_STEREOGUARD_EXE, "run", "--no-table", "--source", "pairs:" + pairs, "--preload", "3",
                           "--rate", "5", "--domain", std::to_string(kDomain), "--port", std::to_string(kDisplayPort),
                           "--config-dir", config_dir, "--summary-json", summary_path},
-                         {{"CYCLONEDDS_URI", test::loopbackUri()}, {"SG_DDS_DOMAIN", std::to_string(kDomain)}},
+                         test::loopbackEnv(kDomain),
                          run_log);
   const std::vector<std::string> stages = {"acquisition", "features", "segmentation", "localization", "display"};
   auto pids = [&] {
@@ -204,9 +197,7 @@ TEST(StageRestarts, EveryStageKilledInTurnIsRestartedAndDetectionsFlowAgainWithi
   ASSERT_TRUE(run.running()) << test::tail(run_log);
 
   run.signal(SIGTERM);
-  const auto status = run.waitFor(30s);
-  ASSERT_TRUE(status.has_value()) << test::tail(run_log);
-  EXPECT_EQ(*status, 0) << test::tail(run_log);
+  ASSERT_TRUE(test::exitsWith(run, 0, 30s, run_log));
   const nlohmann::json summary = nlohmann::json::parse(test::readFile(summary_path));
   for (const std::string& stage : stages) {
     EXPECT_EQ(summary["restarts"][stage].get<int>(), 1) << summary.dump(2);
