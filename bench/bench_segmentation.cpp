@@ -5,6 +5,11 @@
 //  - The whole segmentation (features of both images + every stage), the
 //    detection (segmentation + localization + tracking) and OpenCV StereoBM
 //    (128 disparities, block 15, one thread) on the same pairs.
+//  - The localization alone (symmetry candidates, filters, stereo refinement,
+//    ground contact, HOG shape validation; no tracking) on a fixed
+//    segmentation of each frame, computed once outside the timed loop, so the
+//    figure does not move with the segmentation: KITTI pairs and synthetic
+//    scenes (seeds 1000-1007, 1242x375), serial reference and fast path.
 //  - Cost as work grows: the segmentation, the correlation and StereoBM on
 //    analytic scenes of 640x480, 1242x375 and 1920x1080 with 64, 128 and 256
 //    offsets (StereoBM with as many disparities).
@@ -28,6 +33,7 @@
 
 #include "../tests/unit/vision/analytic_scene.hpp"
 #include "../tests/unit/vision/test_helpers.hpp"
+#include "io/synthetic_scene.hpp"
 #include "vision/detector.hpp"
 #include "vision/segmenter.hpp"
 #include "vision/simd_match.hpp"
@@ -97,6 +103,54 @@ const FrameSet& analytic(int width, int height, int offsets) {
     slot->frames.push_back(prepareFrame(scene.left, scene.right, scene.rig, offsets));
   }
   return *slot;
+}
+
+// A frame with its segmentation, the fixed input of the localization benchmarks.
+struct SegmentedFrame {
+  cv::Mat left, right;
+  sg::StereoRig rig;
+  sg::SegmentationResult segmentation;
+};
+
+std::vector<SegmentedFrame> segmentAll(const std::vector<std::pair<cv::Mat, cv::Mat>>& images,
+                                       const std::vector<sg::StereoRig>& rigs) {
+  std::vector<SegmentedFrame> out;
+  sg::FeatureExtractor fx;
+  sg::Segmenter seg;
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    SegmentedFrame f{images[i].first, images[i].second, rigs[i], {}};
+    seg.reset();
+    sg::segmentPair(fx, seg, f.left, f.right, f.rig, f.segmentation);
+    out.push_back(std::move(f));
+  }
+  return out;
+}
+
+const std::vector<SegmentedFrame>& segmentedKitti() {
+  static const std::vector<SegmentedFrame> set = [] {
+    std::vector<std::pair<cv::Mat, cv::Mat>> images;
+    std::vector<sg::StereoRig> rigs;
+    for (const sg::test::RealPair& p : sg::test::loadKittiRigPairs()) {
+      images.emplace_back(p.left, p.right);
+      rigs.push_back(p.rig);
+    }
+    return segmentAll(images, rigs);
+  }();
+  return set;
+}
+
+const std::vector<SegmentedFrame>& segmentedSynthetic() {
+  static const std::vector<SegmentedFrame> set = [] {
+    std::vector<std::pair<cv::Mat, cv::Mat>> images;
+    std::vector<sg::StereoRig> rigs;
+    for (std::uint64_t seed = 1000; seed < 1008; ++seed) {
+      const sg::StereoPair p = sg::renderSyntheticScene(sg::randomSceneParams(seed, 1242, 375), seed);
+      images.emplace_back(p.left, p.right);
+      rigs.push_back(p.rig);
+    }
+    return segmentAll(images, rigs);
+  }();
+  return set;
 }
 
 // Runs `body(frame)` once per iteration, cycling over the frames, with at most `threads` TBB threads.
@@ -245,6 +299,46 @@ void registerWhole(const std::string& prefix, const std::function<const FrameSet
       ->UseRealTime();
 }
 
+// Localization on a fixed segmentation (one thread; the localizer is serial).
+void registerLocalization() {
+  const std::pair<const char*, const std::vector<SegmentedFrame>& (*)()> sets[] = {
+      {"kitti", segmentedKitti}, {"synthetic", segmentedSynthetic}};
+  for (const auto& [name, frames] : sets) {
+    for (Impl impl : {Impl::kReference, Impl::kFast}) {
+      const bool ref = impl == Impl::kReference;
+      const std::string bench =
+          std::string("localization/") + name + "/" + (ref ? "reference" : "fast") + "/threads:1";
+      benchmark::RegisterBenchmark(bench.c_str(), [ref, frames = frames](benchmark::State& state) {
+        const std::vector<SegmentedFrame>& set = frames();
+        if (set.empty()) {
+          state.SkipWithError("no frames (real pairs missing under SG_SHARED_DATA_DIR?)");
+          return;
+        }
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+        sg::HumanLocalizer loc{sg::LocalizerParams{}};
+        std::vector<sg::HumanDetection> out;
+        std::size_t boxes = 0;
+        auto body = [&](const SegmentedFrame& f) {
+          if (ref) loc.computeReference(f.left, f.right, f.rig, f.segmentation, out);
+          else loc.compute(f.left, f.right, f.rig, f.segmentation, out);
+          benchmark::DoNotOptimize(out.data());
+        };
+        body(set[0]);  // warm-up: scratch sized
+        std::size_t i = 0;
+        long n = 0;
+        for (auto _ : state) {
+          body(set[i]);
+          boxes += out.size();
+          ++n;
+          i = (i + 1) % set.size();
+        }
+        state.counters["frames"] = static_cast<double>(set.size());
+        state.counters["humans_per_frame"] = n > 0 ? static_cast<double>(boxes) / static_cast<double>(n) : 0.0;
+      })->Unit(benchmark::kMillisecond)->UseRealTime();
+    }
+  }
+}
+
 void registerSweep() {
   const int sizes[][2] = {{640, 480}, {1242, 375}, {1920, 1080}};
   for (const auto& wh : sizes) {
@@ -330,6 +424,11 @@ void printSummary(const Collector& c) {
     printRatio(c, s + ": fast 1 thread / 2 threads", s + "/fast/threads:1/real_time", s + "/fast/threads:2/real_time",
                true);
   }
+  for (const char* set : {"kitti", "synthetic"}) {
+    const std::string l = std::string("localization/") + set;
+    printRatio(c, l + ": reference / fast (1 thread)", l + "/reference/threads:1/real_time",
+               l + "/fast/threads:1/real_time");
+  }
   printRatio(c, "segmentation kitti: 1 thread / 2 threads", "segmentation/kitti/threads:1/real_time",
              "segmentation/kitti/threads:2/real_time", true);
   printRatio(c, "kitti: StereoBM / segmentation (1 thread each)", "stereobm/kitti/threads:1/real_time",
@@ -349,6 +448,7 @@ void printSummary(const Collector& c) {
 int main(int argc, char** argv) {
   registerStages();
   registerWhole("kitti", kitti, 128, {1, 2}, true);
+  registerLocalization();
   registerSweep();
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;

@@ -28,8 +28,17 @@ void Detector::compute(const cv::Mat& left, const cv::Mat& right, const StereoRi
                        DetectionResult& out) {
   const auto start = std::chrono::steady_clock::now();
   segmentPair(features_, segmenter_, left, right, rig, out.segmentation);
-  out.timing_ms = out.segmentation.timing_ms;
-  out.timing_ms.erase("total");
+  // The segmentation's stages, entry by entry: the keys are the same every frame,
+  // so in steady state no map node is freed or allocated.
+  for (auto it = out.timing_ms.begin(); it != out.timing_ms.end();) {
+    const bool ours = it->first == "localization" || it->first == "tracking" || it->first == "total";
+    if (!ours && out.segmentation.timing_ms.count(it->first) == 0) it = out.timing_ms.erase(it);
+    else ++it;
+  }
+  for (const auto& [stage, ms] : out.segmentation.timing_ms) {
+    if (stage != "total") out.timing_ms[stage] = ms;
+  }
+  if (!params_.tracking) out.timing_ms.erase("tracking");
   const auto t_loc = std::chrono::steady_clock::now();
   localizer_.compute(left, right, rig, out.segmentation, out.humans);
   out.timing_ms["localization"] = msSince(t_loc);

@@ -38,6 +38,23 @@ double sampleRow(const std::uint8_t* row, double x) {
   return (1.0 - t) * row[x0] + t * row[x0 + 1];
 }
 
+// A header of exactly rows x cols over `storage`, which only grows.
+cv::Mat scratchMat(std::vector<double>& storage, int rows, int cols, int type) {
+  const std::size_t bytes = static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols) * CV_ELEM_SIZE(type);
+  const std::size_t words = (bytes + sizeof(double) - 1) / sizeof(double);
+  if (storage.size() < words) storage.resize(words);
+  return cv::Mat(rows, cols, type, storage.data());
+}
+
+// mask = 255 where labels == label, else 0 (cv::compare CMP_EQ).
+void labelMask(const cv::Mat& labels, int label, cv::Mat& mask) {
+  for (int y = 0; y < labels.rows; ++y) {
+    const auto* l = labels.ptr<std::uint8_t>(y);
+    auto* m = mask.ptr<std::uint8_t>(y);
+    for (int x = 0; x < labels.cols; ++x) m[x] = static_cast<int>(l[x]) == label ? 255 : 0;
+  }
+}
+
 }  // namespace
 
 void LocalizerParams::validate() const {
@@ -53,6 +70,16 @@ double boxIoU(const cv::Rect2f& a, const cv::Rect2f& b) {
   return uni > 0.0 ? inter / uni : 0.0;
 }
 
+namespace {
+
+bool isDuplicate(const HumanDetection& d, const HumanDetection& k, double iou, double containment) {
+  const double inter = static_cast<double>((d.box & k.box).area());
+  const double smaller = static_cast<double>(std::min(d.box.area(), k.box.area()));
+  return boxIoU(d.box, k.box) > iou || (smaller > 0.0 && inter / smaller > containment);
+}
+
+}  // namespace
+
 void suppressDuplicates(std::vector<HumanDetection>& detections, double iou, double containment) {
   std::stable_sort(detections.begin(), detections.end(),
                    [](const HumanDetection& a, const HumanDetection& b) { return a.score > b.score; });
@@ -61,9 +88,7 @@ void suppressDuplicates(std::vector<HumanDetection>& detections, double iou, dou
   for (const auto& d : detections) {
     bool duplicate = false;
     for (const auto& k : kept) {
-      const double inter = static_cast<double>((d.box & k.box).area());
-      const double smaller = static_cast<double>(std::min(d.box.area(), k.box.area()));
-      if (boxIoU(d.box, k.box) > iou || (smaller > 0.0 && inter / smaller > containment)) {
+      if (isDuplicate(d, k, iou, containment)) {
         duplicate = true;
         break;
       }
@@ -71,6 +96,36 @@ void suppressDuplicates(std::vector<HumanDetection>& detections, double iou, dou
     if (!duplicate) kept.push_back(d);
   }
   detections.swap(kept);
+}
+
+void suppressDuplicatesInPlace(std::vector<HumanDetection>& detections, double iou, double containment) {
+  // Stable insertion sort by descending score (the order of std::stable_sort), no buffer.
+  for (std::size_t i = 1; i < detections.size(); ++i) {
+    if (!(detections[i].score > detections[i - 1].score)) continue;
+    const HumanDetection moving = detections[i];
+    std::size_t j = i;
+    while (j > 0 && moving.score > detections[j - 1].score) {
+      detections[j] = detections[j - 1];
+      --j;
+    }
+    detections[j] = moving;
+  }
+  // The kept ones are compacted at the front, in order.
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < detections.size(); ++i) {
+    bool duplicate = false;
+    for (std::size_t k = 0; k < kept; ++k) {
+      if (isDuplicate(detections[i], detections[k], iou, containment)) {
+        duplicate = true;
+        break;
+      }
+    }
+    if (!duplicate) {
+      if (kept != i) detections[kept] = detections[i];
+      ++kept;
+    }
+  }
+  detections.resize(kept);
 }
 
 double groundRowForOffset(const GroundProfile& ground, const StereoRig& rig, double offset_px, double near_row) {
@@ -149,7 +204,7 @@ double HumanLocalizer::foreignShare(const SegmentationResult& segmentation, cons
 
 void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& rig,
                                          const SegmentationResult& segmentation, const ObstacleCluster& cluster,
-                                         std::vector<HumanDetection>& out) {
+                                         std::vector<HumanDetection>& out, bool reference) {
   const auto& cp = params_.candidates;
   const double d = cluster.offset_px;
   if (d < 1.0 || cluster.box.area() <= 0) return;
@@ -184,12 +239,21 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& r
   if (roi.width < 3 || roi.height < min_h_px) return;
 
   const cv::Mat grey = left(roi);
-  if (!segmentation.labels.empty() && segmentation.labels.size() == left.size()) {
-    cv::compare(segmentation.labels(roi), cluster.label, region_mask_, cv::CMP_EQ);
+  const bool labelled = !segmentation.labels.empty() && segmentation.labels.size() == left.size();
+  if (reference) {
+    if (labelled) cv::compare(segmentation.labels(roi), cluster.label, region_mask_, cv::CMP_EQ);
+    else region_mask_.release();
+    scanner_.edgeWeightsReference(grey, region_mask_, region_weights_);
   } else {
-    region_mask_.release();
+    if (labelled) {
+      region_mask_ = scratchMat(region_mask_store_, roi.height, roi.width, CV_8UC1);
+      labelMask(segmentation.labels(roi), cluster.label, region_mask_);
+    } else {
+      region_mask_ = cv::Mat();
+    }
+    region_weights_ = scratchMat(region_weights_store_, roi.height, roi.width, CV_32FC1);
+    scanner_.edgeWeights(grey, region_mask_, region_weights_);
   }
-  scanner_.edgeWeights(grey, region_mask_, region_weights_);
 
   SymmetrySearch search;
   search.min_half_width_px = std::max(1, static_cast<int>(std::lround((min_w_px - 1.0) / 2.0)));
@@ -199,9 +263,12 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& r
   search.max_height_px = max_h_px;
   search.min_aspect = cp.min_aspect;
   search.max_aspect = cp.max_aspect;
-  scanner_.compute(grey, region_weights_, search, sym_scratch_);
+  if (reference) scanner_.computeReference(grey, region_weights_, search, sym_scratch_);
+  else scanner_.compute(grey, region_weights_, search, sym_scratch_);
 
-  std::vector<HumanDetection> local;
+  std::vector<HumanDetection> local_reference;
+  std::vector<HumanDetection>& local = reference ? local_reference : local_;
+  local.clear();
   extended_.clear();
   const auto& fp = params_.filters;
   for (const auto& c : sym_scratch_) {
@@ -251,7 +318,8 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& r
       extended_.push_back(h);
     }
   }
-  suppressDuplicates(local, fp.nms_iou, fp.nms_containment);
+  if (reference) suppressDuplicates(local, fp.nms_iou, fp.nms_containment);
+  else suppressDuplicatesInPlace(local, fp.nms_iou, fp.nms_containment);
   int kept = 0;
   for (const auto& h : local) {
     if (kept >= cp.max_per_cluster) break;
@@ -318,7 +386,8 @@ bool HumanLocalizer::refineOffset(const cv::Mat& left, const cv::Mat& right, con
     return (slr - sl * sr / nd) / std::sqrt(var_l * var_r);
   };
 
-  std::vector<double> scores(static_cast<std::size_t>(dhi - dlo + 1));
+  std::vector<double>& scores = scores_;
+  scores.assign(static_cast<std::size_t>(dhi - dlo + 1), 0.0);
   int best = dlo;
   for (int d = dlo; d <= dhi; ++d) {
     scores[static_cast<std::size_t>(d - dlo)] = znccAt(d);
@@ -403,7 +472,7 @@ float HumanLocalizer::shapeScore(const cv::Mat& left, const cv::Rect2f& box) {
   const cv::Rect image(0, 0, left.cols, left.rows);
   const cv::Rect inside = crop & image;
   if (inside.area() <= 0) return static_cast<float>(kNoShape);
-  cv::Mat patch;
+  cv::Mat patch = scratchMat(patch_store_, crop.height, crop.width, CV_8UC1);
   cv::copyMakeBorder(left(inside), patch, inside.y - crop.y, crop.y + crop.height - inside.y - inside.height,
                      inside.x - crop.x, crop.x + crop.width - inside.x - inside.width, cv::BORDER_REPLICATE);
   cv::resize(patch, hog_canvas_, canvas, 0, 0, s > 1.0 ? cv::INTER_AREA : cv::INTER_LINEAR);
@@ -412,8 +481,9 @@ float HumanLocalizer::shapeScore(const cv::Mat& left, const cv::Rect2f& box) {
   return static_cast<float>(*std::max_element(hog_weights_.begin(), hog_weights_.end()));
 }
 
-void HumanLocalizer::compute(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
-                             const SegmentationResult& segmentation, std::vector<HumanDetection>& out) {
+void HumanLocalizer::computeImpl(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
+                                 const SegmentationResult& segmentation, std::vector<HumanDetection>& out,
+                                 bool reference) {
   out.clear();
   if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() || left.empty()) {
     throw InputError("localizer: left and right images must be non-empty CV_8UC1 of the same size");
@@ -422,22 +492,49 @@ void HumanLocalizer::compute(const cv::Mat& left, const cv::Mat& right, const St
     throw InputError("localizer: rig focal_px and baseline_m must be positive");
   }
   candidates_.clear();
-  for (const auto& cluster : segmentation.obstacles) candidatesInCluster(left, rig, segmentation, cluster, candidates_);
+  for (const auto& cluster : segmentation.obstacles) candidatesInCluster(left, rig, segmentation, cluster, candidates_, reference);
   // Duplicates are suppressed after scoring, so that the better-framed of two overlapping boxes wins.
 
   const cv::Rect image(0, 0, left.cols, left.rows);
   cv::Mat box_mask, box_weights;
+  const bool labelled = !segmentation.labels.empty() && segmentation.labels.size() == left.size();
   for (auto h : candidates_) {
     const cv::Rect pixels = toPixels(h.box, left.size());
     if (pixels.area() <= 0) continue;
     // Step 3: match the box's cluster edges (all its edges when too few) in the right image.
-    cv::Mat labels_mask;
-    if (!segmentation.labels.empty() && segmentation.labels.size() == left.size()) {
-      cv::compare(segmentation.labels(pixels), h.cluster_label, labels_mask, cv::CMP_EQ);
+    if (reference) {
+      cv::Mat labels_mask;
+      if (labelled) cv::compare(segmentation.labels(pixels), h.cluster_label, labels_mask, cv::CMP_EQ);
+      scanner_.edgeWeightsReference(left(pixels), labels_mask, box_weights);
+      cv::compare(box_weights, 0.5, box_mask, cv::CMP_GE);
+      if (cv::countNonZero(box_mask) < params_.refine.min_pixels) cv::compare(box_weights, 0.0, box_mask, cv::CMP_GT);
+    } else {
+      cv::Mat labels_mask;
+      if (labelled) {
+        labels_mask = scratchMat(labels_mask_store_, pixels.height, pixels.width, CV_8UC1);
+        labelMask(segmentation.labels(pixels), h.cluster_label, labels_mask);
+      }
+      box_weights = scratchMat(box_weights_store_, pixels.height, pixels.width, CV_32FC1);
+      scanner_.edgeWeights(left(pixels), labels_mask, box_weights);
+      box_mask = scratchMat(box_mask_store_, pixels.height, pixels.width, CV_8UC1);
+      // box_mask = weights >= 0.5 (255/0), or weights > 0 when that leaves too few pixels.
+      int strong = 0;
+      for (int y = 0; y < pixels.height; ++y) {
+        const float* w = box_weights.ptr<float>(y);
+        auto* m = box_mask.ptr<std::uint8_t>(y);
+        for (int x = 0; x < pixels.width; ++x) {
+          m[x] = w[x] >= 0.5f ? 255 : 0;
+          strong += m[x] != 0 ? 1 : 0;
+        }
+      }
+      if (strong < params_.refine.min_pixels) {
+        for (int y = 0; y < pixels.height; ++y) {
+          const float* w = box_weights.ptr<float>(y);
+          auto* m = box_mask.ptr<std::uint8_t>(y);
+          for (int x = 0; x < pixels.width; ++x) m[x] = w[x] > 0.0f ? 255 : 0;
+        }
+      }
     }
-    scanner_.edgeWeights(left(pixels), labels_mask, box_weights);
-    cv::compare(box_weights, 0.5, box_mask, cv::CMP_GE);
-    if (cv::countNonZero(box_mask) < params_.refine.min_pixels) cv::compare(box_weights, 0.0, box_mask, cv::CMP_GT);
     float offset = h.offset_px;
     float zncc = 0.0f;
     const bool trusted = refineOffset(left, right, pixels, box_mask, offset, zncc);
@@ -473,7 +570,18 @@ void HumanLocalizer::compute(const cv::Mat& left, const cv::Mat& right, const St
     if ((h.box & cv::Rect2f(image)).area() <= 0.0f) continue;
     out.push_back(h);
   }
-  suppressDuplicates(out, params_.filters.nms_iou, params_.filters.nms_containment);
+  if (reference) suppressDuplicates(out, params_.filters.nms_iou, params_.filters.nms_containment);
+  else suppressDuplicatesInPlace(out, params_.filters.nms_iou, params_.filters.nms_containment);
+}
+
+void HumanLocalizer::compute(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
+                             const SegmentationResult& segmentation, std::vector<HumanDetection>& out) {
+  computeImpl(left, right, rig, segmentation, out, false);
+}
+
+void HumanLocalizer::computeReference(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
+                                      const SegmentationResult& segmentation, std::vector<HumanDetection>& out) {
+  computeImpl(left, right, rig, segmentation, out, true);
 }
 
 }  // namespace sg

@@ -172,6 +172,12 @@ class HumanLocalizer {
   void compute(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig, const SegmentationResult& segmentation,
                std::vector<HumanDetection>& out);
 
+  // Same result from the plain serial implementation (fresh scratch per region and
+  // box, cv::Sobel/cv::compare, every symmetry table of every axis), kept as the
+  // reference of compute(); bit-identical.
+  void computeReference(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
+                        const SegmentationResult& segmentation, std::vector<HumanDetection>& out);
+
   // Step 3 on its own: refined offset of `box` (left image) around `offset_px`;
   // `mask` (CV_8U, box size, may be empty) selects the pixels matched.
   // Returns false when the match is not trusted (offset_px then unchanged).
@@ -187,8 +193,10 @@ class HumanLocalizer {
   const LocalizerParams& params() const { return params_; }
 
  private:
+  void computeImpl(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
+                   const SegmentationResult& segmentation, std::vector<HumanDetection>& out, bool reference);
   void candidatesInCluster(const cv::Mat& left, const StereoRig& rig, const SegmentationResult& segmentation,
-                           const ObstacleCluster& cluster, std::vector<HumanDetection>& out);
+                           const ObstacleCluster& cluster, std::vector<HumanDetection>& out, bool reference);
   double foreignShare(const SegmentationResult& segmentation, const cv::Rect& box, int own_label) const;
 
   LocalizerParams params_;
@@ -202,10 +210,17 @@ class HumanLocalizer {
   std::vector<double> hog_weights_;
   std::vector<double> samples_l_;
   std::vector<cv::Point> samples_p_;
+  std::vector<double> scores_;
+  std::vector<HumanDetection> local_;
+  // Storage behind the per-region and per-box headers of the fast path; it only grows.
+  std::vector<double> region_mask_store_, region_weights_store_, labels_mask_store_, box_weights_store_,
+      box_mask_store_, patch_store_;
 };
 
 // Greedy non-maximum suppression by score (keeps the higher score of two
 // boxes overlapping more than `iou` or one mostly inside the other).
 void suppressDuplicates(std::vector<HumanDetection>& detections, double iou, double containment);
+// Same result without a temporary buffer (stable insertion sort, kept boxes compacted in place).
+void suppressDuplicatesInPlace(std::vector<HumanDetection>& detections, double iou, double containment);
 
 }  // namespace sg

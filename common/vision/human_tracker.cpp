@@ -108,8 +108,10 @@ void HumanTracker::update(double time_s, std::vector<HumanDetection>& detections
     if (track_used_[t] == 0) ++tracks_[t].misses;
   }
   const std::size_t old_count = tracks_.size();
-  std::vector<int> new_index(old_count, -1);
-  std::vector<Track> kept;
+  std::vector<int>& new_index = new_index_;
+  new_index.assign(old_count, -1);
+  std::vector<Track>& kept = kept_;  // swapped with tracks_ below: both buffers are reused
+  kept.clear();
   kept.reserve(tracks_.size() + detections.size());
   for (std::size_t t = 0; t < old_count; ++t) {
     const Track& tr = tracks_[t];

@@ -89,6 +89,8 @@ class HumanTracker {
   std::vector<Pair> pairs_;
   std::vector<int> track_of_detection_;
   std::vector<char> track_used_;
+  std::vector<int> new_index_;
+  std::vector<Track> kept_;
 };
 
 }  // namespace sg

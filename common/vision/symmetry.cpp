@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include <opencv2/imgproc.hpp>
 
@@ -26,7 +27,7 @@ double tableSum(const cv::Mat& table, int k, int r0, int r1) {
 
 SymmetryScanner::SymmetryScanner(const SymmetryParams& params) : params_(params) { params_.validate(); }
 
-void SymmetryScanner::edgeWeights(const cv::Mat& grey, const cv::Mat& cluster_mask, cv::Mat& weights) const {
+void SymmetryScanner::edgeWeightsReference(const cv::Mat& grey, const cv::Mat& cluster_mask, cv::Mat& weights) const {
   if (grey.type() != CV_8UC1) throw InputError("symmetry: grey region must be CV_8UC1");
   if (!cluster_mask.empty() && (cluster_mask.size() != grey.size() || cluster_mask.type() != CV_8UC1)) {
     throw InputError("symmetry: cluster mask must be CV_8UC1 of the region's size");
@@ -55,13 +56,72 @@ void SymmetryScanner::edgeWeights(const cv::Mat& grey, const cv::Mat& cluster_ma
   }
 }
 
+void SymmetryScanner::edgeWeights(const cv::Mat& grey, const cv::Mat& cluster_mask, cv::Mat& weights) const {
+  if (grey.type() != CV_8UC1) throw InputError("symmetry: grey region must be CV_8UC1");
+  if (!cluster_mask.empty() && (cluster_mask.size() != grey.size() || cluster_mask.type() != CV_8UC1)) {
+    throw InputError("symmetry: cluster mask must be CV_8UC1 of the region's size");
+  }
+  weights.create(grey.size(), CV_32FC1);
+  if (grey.empty()) return;
+  // The region's place in its image: cv::Sobel reads the image's pixels around a
+  // region and reflects (BORDER_REFLECT_101) only at the image's own border.
+  cv::Size whole;
+  cv::Point ofs;
+  grey.locateROI(whole, ofs);
+  const std::size_t step = grey.step[0];
+  // Image row / column of region row / column i, reflected at the image border.
+  auto reflect = [](int i, int n) {
+    if (n == 1) return 0;
+    if (i < 0) return -i;
+    if (i >= n) return 2 * n - 2 - i;
+    return i;
+  };
+  const float outside = cluster_mask.empty() ? 1.0f : params_.outside_cluster_edge_weight;
+  const float inv_full = 1.0f / (params_.full_weight_ratio * static_cast<float>(params_.edge_threshold));
+  const int threshold = params_.edge_threshold;
+  const int cols = grey.cols;
+  const int left_col = reflect(ofs.x - 1, whole.width) - ofs.x;          // region column of the left neighbour of 0
+  const int right_col = reflect(ofs.x + cols, whole.width) - ofs.x;      // ... of the right neighbour of cols - 1
+  for (int r = 0; r < grey.rows; ++r) {
+    // Rows above and below, as pointers relative to the region's row 0 (inside the parent image).
+    const std::uint8_t* base = grey.ptr<std::uint8_t>(0);
+    const auto* up = base + static_cast<std::ptrdiff_t>(reflect(ofs.y + r - 1, whole.height) - ofs.y) *
+                                static_cast<std::ptrdiff_t>(step);
+    const auto* mid = base + static_cast<std::ptrdiff_t>(r) * static_cast<std::ptrdiff_t>(step);
+    const auto* down = base + static_cast<std::ptrdiff_t>(reflect(ofs.y + r + 1, whole.height) - ofs.y) *
+                                  static_cast<std::ptrdiff_t>(step);
+    const std::uint8_t* m = cluster_mask.empty() ? nullptr : cluster_mask.ptr<std::uint8_t>(r);
+    auto* w = weights.ptr<float>(r);
+    for (int c = 0; c < cols; ++c) {
+      const int cl = c == 0 ? left_col : c - 1;
+      const int cr = c == cols - 1 ? right_col : c + 1;
+      const int gx = (up[cr] + 2 * mid[cr] + down[cr]) - (up[cl] + 2 * mid[cl] + down[cl]);
+      const int gy = (down[cl] + 2 * down[c] + down[cr]) - (up[cl] + 2 * up[c] + up[cr]);
+      const int mag = std::abs(gx) + std::abs(gy);
+      if (mag < threshold) {
+        w[c] = 0.0f;
+      } else {
+        const float strength = std::min(1.0f, static_cast<float>(mag) * inv_full);
+        w[c] = strength * ((m == nullptr || m[c] != 0) ? 1.0f : outside);
+      }
+    }
+  }
+}
+
+cv::Mat SymmetryScanner::scratch(std::vector<double>& storage, int rows, int cols, int type) {
+  const std::size_t bytes = static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols) * CV_ELEM_SIZE(type);
+  const std::size_t words = (bytes + sizeof(double) - 1) / sizeof(double);
+  if (storage.size() < words) storage.resize(words);
+  return cv::Mat(rows, cols, type, storage.data());
+}
+
 void SymmetryScanner::prepare(const cv::Mat& grey, const cv::Mat& weights) {
   if (grey.type() != CV_8UC1 || weights.type() != CV_32FC1 || grey.size() != weights.size()) {
     throw InputError("symmetry: grey (CV_8UC1) and weights (CV_32FC1) must have the same size");
   }
   grey.convertTo(grey_f_, CV_64F);
   grey.copyTo(grey_u8_);
-  weights.copyTo(weights_);
+  weights_ = weights.clone();
   // Horizontal max filter: the mirror side tolerates a few pixels of asymmetry.
   const int tol = params_.mirror_tolerance_px;
   mirror_.create(weights.size(), CV_32FC1);
@@ -87,87 +147,118 @@ void SymmetryScanner::prepare(const cv::Mat& grey, const cv::Mat& weights) {
   }
 }
 
-void SymmetryScanner::buildAxis(int axis, int max_half, int rows) {
+void SymmetryScanner::prepareFast(const cv::Mat& grey, const cv::Mat& weights) {
+  if (grey.type() != CV_8UC1 || weights.type() != CV_32FC1 || grey.size() != weights.size()) {
+    throw InputError("symmetry: grey (CV_8UC1) and weights (CV_32FC1) must have the same size");
+  }
+  const int rows = weights.rows;
+  const int cols = weights.cols;
+  weights_ = weights;  // read only, for this call
+  const int tol = params_.mirror_tolerance_px;
+  mirror_ = scratch(mirror_store_, rows, cols, CV_32FC1);
+  for (int r = 0; r < rows; ++r) {
+    const float* w = weights_.ptr<float>(r);
+    float* m = mirror_.ptr<float>(r);
+    for (int c = 0; c < cols; ++c) {
+      float best = 0.0f;
+      for (int d = std::max(0, c - tol); d <= std::min(cols - 1, c + tol); ++d) best = std::max(best, w[d]);
+      m[c] = best;
+    }
+  }
+  // cv::integral writes into headers of the right size without reallocating.
+  weight_integral_ = scratch(wint_store_, rows + 1, cols + 1, CV_64FC1);
+  mirror_integral_ = scratch(mint_store_, rows + 1, cols + 1, CV_64FC1);
+  grey_integral_ = scratch(gint_store_, rows + 1, cols + 1, CV_64FC1);
+  grey_sq_integral_ = scratch(gsq_store_, rows + 1, cols + 1, CV_64FC1);
+  cv::integral(weights_, weight_integral_, CV_64F);
+  cv::integral(mirror_, mirror_integral_, CV_64F);
+  cv::integral(grey, grey_integral_, grey_sq_integral_, CV_64F, CV_64F);
+  col_nonzero_ = scratch(colnz_store_, rows + 1, cols, CV_32SC1);
+  col_nonzero_.row(0).setTo(0);
+  for (int r = 0; r < rows; ++r) {
+    const float* w = weights_.ptr<float>(r);
+    const int* above = col_nonzero_.ptr<int>(r);
+    int* below = col_nonzero_.ptr<int>(r + 1);
+    for (int c = 0; c < cols; ++c) below[c] = above[c] + (w[c] >= 0.25f ? 1 : 0);
+  }
+}
+
+void SymmetryScanner::buildAxisFast(int axis, int max_half, int rows) {
   // Each table is a 2-D prefix sum over half-widths k and rows r:
   //   t(k, r + 1) = ((t(k, r) + t(k - 1, r + 1)) - t(k - 1, r)) + v(k, r).
-  // The grey tables hold integers far below 2^53: their doubles are exact whatever the
-  // order, so they are summed as integers. The edge tables keep the reference's
-  // floating-point order; updates on the anti-diagonal k + r of a strip of kStrip rows
-  // do not depend on each other, which hides the adder latency.
-  const cv::Size size(rows + 1, max_half + 1);
-  for (cv::Mat* t : {&pe_, &pm_, &pa_, &pb_, &paa_, &pbb_, &pab_}) {
-    t->create(size, CV_64FC1);
-    t->row(0).setTo(0.0);
-  }
-  auto rowOf = [&](cv::Mat& t, int k) { return t.ptr<double>(k); };
-  for (int k = 1; k <= max_half; ++k)
-    for (cv::Mat* t : {&pe_, &pm_, &pa_, &pb_, &paa_, &pbb_, &pab_}) t->ptr<double>(k)[0] = 0.0;
-
-  // Grey tables: column sums down to each row, accumulated over k, as 64-bit integers.
-  {
-    for (int k = 1; k <= max_half; ++k) {
-      const int cl = axis - k;
-      const int cr = axis + k;
-      double* ta = rowOf(pa_, k);
-      double* tb = rowOf(pb_, k);
-      double* taa = rowOf(paa_, k);
-      double* tbb = rowOf(pbb_, k);
-      double* tab = rowOf(pab_, k);
-      const double* ua = rowOf(pa_, k - 1);
-      const double* ub = rowOf(pb_, k - 1);
-      const double* uaa = rowOf(paa_, k - 1);
-      const double* ubb = rowOf(pbb_, k - 1);
-      const double* uab = rowOf(pab_, k - 1);
-      std::int64_t sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;  // column sums of rows < r + 1
-      for (int r = 0; r < rows; ++r) {
-        const std::uint8_t* g = grey_u8_.ptr<std::uint8_t>(r);
-        const std::int64_t a = g[cl];
-        const std::int64_t b = g[cr];
-        sa += a;
-        sb += b;
-        saa += a * a;
-        sbb += b * b;
-        sab += a * b;
-        // t(k, r + 1) = t(k - 1, r + 1) + column k summed over rows <= r (exact integers).
-        const auto at = static_cast<std::size_t>(r) + 1;
-        ta[at] = ua[at] + static_cast<double>(sa);
-        tb[at] = ub[at] + static_cast<double>(sb);
-        taa[at] = uaa[at] + static_cast<double>(saa);
-        tbb[at] = ubb[at] + static_cast<double>(sbb);
-        tab[at] = uab[at] + static_cast<double>(sab);
-      }
+  // Only three of the reference's seven are needed: the sums of a, b, a^2, b^2
+  // over a box are exact integers taken from the region's integral images. The
+  // updates on one anti-diagonal s = k + r + 1 depend only on the two previous
+  // anti-diagonals, so the tables are stored skewed, row s + 1 holding
+  // t(k, s - k) for every k, and each anti-diagonal is one loop over k with the
+  // reference's operations in the reference's order (the edge tables are
+  // floating-point sums whose rounding must stay that of the reference; the
+  // mirrored grey product is an exact integer in any order). Rows 0 and 1 are
+  // zero (s = -1 and 0); t(k, r) is row k + r + 1, column k.
+  const int kmax = max_half;
+  const int width = kmax + 1;
+  const int skew_rows = rows + kmax + 2;
+  pe_ = scratch(pe_store_, skew_rows, width, CV_64FC1);
+  pm_ = scratch(pm_store_, skew_rows, width, CV_64FC1);
+  pab_ = scratch(pab_store_, skew_rows, width, CV_64FC1);
+  for (cv::Mat* t : {&pe_, &pm_, &pab_}) t->rowRange(0, 2).setTo(0.0);
+  if (diagonal_.size() < 3 * static_cast<std::size_t>(width)) diagonal_.resize(3 * static_cast<std::size_t>(width));
+  double* __restrict ve = diagonal_.data();
+  double* __restrict vm = ve + width;
+  double* __restrict vab = vm + width;
+  const float* w0 = weights_.ptr<float>(0);
+  const float* m0 = mirror_.ptr<float>(0);
+  const std::uint8_t* g0 = grey_rows_;  // the caller's region, set by computeImpl
+  const auto wstep = static_cast<std::ptrdiff_t>(weights_.step1());
+  const auto mstep = static_cast<std::ptrdiff_t>(mirror_.step1());
+  const auto gstep = static_cast<std::ptrdiff_t>(grey_step_);
+  for (int s = 1; s <= rows + kmax; ++s) {
+    // k with a row r = s - 1 - k inside [0, rows - 1]; t(k, s - k) for smaller k
+    // (rows below the region) is never read, for larger k it is 0 (r + 1 <= 0).
+    const int klo = std::max(1, s - rows);
+    const int khi = std::min(kmax, s - 1);
+    for (int k = khi + 1; k <= kmax; ++k) ve[k] = vm[k] = vab[k] = 0.0;
+    for (int k = klo; k <= khi; ++k) {
+      const std::ptrdiff_t r = s - 1 - k;
+      const float* w = w0 + r * wstep;
+      const float* m = m0 + r * mstep;
+      const std::uint8_t* g = g0 + r * gstep;
+      const double wl = w[axis - k];
+      const double wr = w[axis + k];
+      const double ml = m[axis - k];
+      const double mr = m[axis + k];
+      ve[k] = 0.5 * (wl + wr);
+      vm[k] = 0.5 * (wl * mr + ml * wr);
+      vab[k] = static_cast<double>(static_cast<std::int64_t>(g[axis - k]) * static_cast<std::int64_t>(g[axis + k]));
     }
-  }
-
-  // Edge tables, the reference's order of operations on skewed strips of kStrip rows of k.
-  constexpr int kStrip = 4;
-  for (int k0 = 1; k0 <= max_half; k0 += kStrip) {
-    const int kn = std::min(kStrip, max_half - k0 + 1);
-    double* te[kStrip];
-    double* tm[kStrip];
-    for (int j = 0; j < kn; ++j) {
-      te[j] = rowOf(pe_, k0 + j);
-      tm[j] = rowOf(pm_, k0 + j);
+    double* __restrict e = pe_.ptr<double>(s + 1);
+    const double* __restrict e1 = pe_.ptr<double>(s);
+    const double* __restrict e2 = pe_.ptr<double>(s - 1);
+    double* __restrict mm = pm_.ptr<double>(s + 1);
+    const double* __restrict m1 = pm_.ptr<double>(s);
+    const double* __restrict m2 = pm_.ptr<double>(s - 1);
+    double* __restrict ab = pab_.ptr<double>(s + 1);
+    const double* __restrict ab1 = pab_.ptr<double>(s);
+    const double* __restrict ab2 = pab_.ptr<double>(s - 1);
+    e[0] = mm[0] = ab[0] = 0.0;
+    // Two half-widths per vector (lane-wise IEEE operations, the same as the scalar ones).
+    typedef double F64x2 __attribute__((vector_size(16)));
+    auto load = [](const double* p) {
+      F64x2 v;
+      std::memcpy(&v, p, sizeof v);
+      return v;
+    };
+    auto store = [](double* p, F64x2 v) { std::memcpy(p, &v, sizeof v); };
+    int k = klo;
+    for (; k + 1 <= kmax; k += 2) {
+      store(e + k, load(e1 + k) + load(e1 + k - 1) - load(e2 + k - 1) + load(ve + k));
+      store(mm + k, load(m1 + k) + load(m1 + k - 1) - load(m2 + k - 1) + load(vm + k));
+      store(ab + k, load(ab1 + k) + load(ab1 + k - 1) - load(ab2 + k - 1) + load(vab + k));
     }
-    const double* pe_prev = rowOf(pe_, k0 - 1);
-    const double* pm_prev = rowOf(pm_, k0 - 1);
-    for (int step = 0; step < rows + kn - 1; ++step) {
-      for (int j = 0; j < kStrip; ++j) {
-        const int r = step - j;
-        if (j >= kn || r < 0 || r >= rows) continue;
-        const int k = k0 + j;
-        const float* w = weights_.ptr<float>(r);
-        const float* m = mirror_.ptr<float>(r);
-        const double wlv = w[axis - k];
-        const double wrv = w[axis + k];
-        const double mlv = m[axis - k];
-        const double mrv = m[axis + k];
-        const double* ue = j == 0 ? pe_prev : te[j - 1];
-        const double* um = j == 0 ? pm_prev : tm[j - 1];
-        const auto at = static_cast<std::size_t>(r);
-        te[j][at + 1] = te[j][at] + ue[at + 1] - ue[at] + 0.5 * (wlv + wrv);
-        tm[j][at + 1] = tm[j][at] + um[at + 1] - um[at] + 0.5 * (wlv * mrv + mlv * wrv);
-      }
+    for (; k <= kmax; ++k) {
+      e[k] = e1[k] + e1[k - 1] - e2[k - 1] + ve[k];
+      mm[k] = m1[k] + m1[k - 1] - m2[k - 1] + vm[k];
+      ab[k] = ab1[k] + ab1[k - 1] - ab2[k - 1] + vab[k];
     }
   }
 }
@@ -214,12 +305,42 @@ int SymmetryScanner::findTop(int x0, int x1, int bottom) const {
   return lo;
 }
 
-SymmetryCandidate SymmetryScanner::evaluate(int axis, int half, int top, int bottom) const {
+SymmetryScanner::BoxSums SymmetryScanner::referenceSums(int half, int top, int bottom) const {
+  BoxSums s;
+  s.e = tableSum(pe_, half, top, bottom);
+  s.m = tableSum(pm_, half, top, bottom);
+  s.a = tableSum(pa_, half, top, bottom);
+  s.b = tableSum(pb_, half, top, bottom);
+  s.aa = tableSum(paa_, half, top, bottom);
+  s.bb = tableSum(pbb_, half, top, bottom);
+  s.ab = tableSum(pab_, half, top, bottom);
+  return s;
+}
+
+SymmetryScanner::BoxSums SymmetryScanner::fastSums(int axis, int half, int top, int bottom) const {
+  // Columns axis - half .. axis - 1 and axis + 1 .. axis + half: the reference's
+  // tables summed the same exact integers.
+  // Skewed tables (buildAxisFast): t(k, r) is row k + r + 1, column k.
+  auto skewSum = [&](const cv::Mat& t) {
+    return t.at<double>(half + bottom + 2, half) - t.at<double>(half + top + 1, half);
+  };
+  BoxSums s;
+  s.e = skewSum(pe_);
+  s.m = skewSum(pm_);
+  s.a = boxSum(grey_integral_, top, bottom, axis - half, axis - 1);
+  s.b = boxSum(grey_integral_, top, bottom, axis + 1, axis + half);
+  s.aa = boxSum(grey_sq_integral_, top, bottom, axis - half, axis - 1);
+  s.bb = boxSum(grey_sq_integral_, top, bottom, axis + 1, axis + half);
+  s.ab = skewSum(pab_);
+  return s;
+}
+
+SymmetryCandidate SymmetryScanner::evaluate(int axis, int half, int top, int bottom, const BoxSums& sums) const {
   SymmetryCandidate c;
   c.axis_col = axis;
   c.box = cv::Rect(axis - half, top, 2 * half + 1, bottom - top + 1);
-  const double esum = tableSum(pe_, half, top, bottom);
-  const double msum = tableSum(pm_, half, top, bottom);
+  const double esum = sums.e;
+  const double msum = sums.m;
   // Share of edges with a mirrored edge, corrected for chance: in dense
   // texture a dilated mirror finds an edge anyway, with probability equal to
   // the density of the dilated edge map.
@@ -233,11 +354,11 @@ SymmetryCandidate SymmetryScanner::evaluate(int axis, int half, int top, int bot
   }
 
   const double n = static_cast<double>(half) * (bottom - top + 1);
-  const double sa = tableSum(pa_, half, top, bottom);
-  const double sb = tableSum(pb_, half, top, bottom);
-  const double var_a = tableSum(paa_, half, top, bottom) - sa * sa / n;
-  const double var_b = tableSum(pbb_, half, top, bottom) - sb * sb / n;
-  const double cov = tableSum(pab_, half, top, bottom) - sa * sb / n;
+  const double sa = sums.a;
+  const double sb = sums.b;
+  const double var_a = sums.aa - sa * sa / n;
+  const double var_b = sums.bb - sb * sb / n;
+  const double cov = sums.ab - sa * sb / n;
   c.grey_symmetry = (var_a > 1e-6 && var_b > 1e-6) ? static_cast<float>(cov / std::sqrt(var_a * var_b)) : 0.0f;
 
   const int x0 = axis - half;
@@ -277,25 +398,63 @@ void SymmetryScanner::computeReference(const cv::Mat& grey, const cv::Mat& weigh
 void SymmetryScanner::computeImpl(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
                                   std::vector<SymmetryCandidate>& out, bool reference) {
   out.clear();
-  prepare(grey, weights);
+  if (reference) prepare(grey, weights);
+  else prepareFast(grey, weights);
+  // Box tops of the widths of one axis are found before its tables are built.
+  grey_rows_ = grey.ptr<std::uint8_t>(0);
+  grey_step_ = grey.step[0];
   const int cols = grey.cols;
   const int bottom = std::clamp(search.bottom_row, 0, grey.rows - 1);
   const int rows = bottom + 1;
   const int kmin = std::max(1, search.min_half_width_px);
+  const int step = params_.width_step_px;
+  if (reference) {
+    // The plain scan: every table of every axis, then the widths.
+    for (int axis = kmin; axis + kmin < cols; axis += params_.axis_step_px) {
+      const int kmax = std::min({search.max_half_width_px, axis, cols - 1 - axis});
+      if (kmax < kmin) continue;
+      buildAxisReference(axis, kmax, rows);
+      SymmetryCandidate best;
+      bool found = false;
+      for (int k = kmin; k <= kmax; k += step) {
+        const int top = findTop(axis - k, axis + k, bottom);
+        const int height = bottom - top + 1;
+        if (height < search.min_height_px || height > search.max_height_px) continue;
+        const double aspect = static_cast<double>(height) / (2 * k + 1);
+        if (aspect < search.min_aspect || aspect > search.max_aspect) continue;
+        const SymmetryCandidate c = evaluate(axis, k, top, bottom, referenceSums(k, top, bottom));
+        if (!found || c.score > best.score) {
+          best = c;
+          found = true;
+        }
+      }
+      if (found) out.push_back(best);
+    }
+    return;
+  }
   for (int axis = kmin; axis + kmin < cols; axis += params_.axis_step_px) {
     const int kmax = std::min({search.max_half_width_px, axis, cols - 1 - axis});
     if (kmax < kmin) continue;
-    if (reference) buildAxisReference(axis, kmax, rows);
-    else buildAxis(axis, kmax, rows);
-    SymmetryCandidate best;
-    bool found = false;
-    for (int k = kmin; k <= kmax; k += params_.width_step_px) {
+    // The box top of every width, and which widths fit the height and aspect limits.
+    tops_.assign(static_cast<std::size_t>((kmax - kmin) / step + 1), -1);
+    int widest = -1;
+    for (int k = kmin, i = 0; k <= kmax; k += step, ++i) {
       const int top = findTop(axis - k, axis + k, bottom);
       const int height = bottom - top + 1;
       if (height < search.min_height_px || height > search.max_height_px) continue;
       const double aspect = static_cast<double>(height) / (2 * k + 1);
       if (aspect < search.min_aspect || aspect > search.max_aspect) continue;
-      const SymmetryCandidate c = evaluate(axis, k, top, bottom);
+      tops_[static_cast<std::size_t>(i)] = top;
+      widest = k;
+    }
+    if (widest < 0) continue;  // no admissible box on this axis
+    buildAxisFast(axis, widest, rows);
+    SymmetryCandidate best;
+    bool found = false;
+    for (int k = kmin, i = 0; k <= widest; k += step, ++i) {
+      const int top = tops_[static_cast<std::size_t>(i)];
+      if (top < 0) continue;
+      const SymmetryCandidate c = evaluate(axis, k, top, bottom, fastSums(axis, k, top, bottom));
       if (!found || c.score > best.score) {
         best = c;
         found = true;
@@ -312,8 +471,8 @@ SymmetryCandidate SymmetryScanner::measure(const cv::Mat& grey, const cv::Mat& w
     throw InputError("symmetry: box outside the region");
   }
   prepare(grey, weights);
-  buildAxis(axis_col, half_width, bottom + 1);
-  return evaluate(axis_col, half_width, top, bottom);
+  buildAxisReference(axis_col, half_width, bottom + 1);
+  return evaluate(axis_col, half_width, top, bottom, referenceSums(half_width, top, bottom));
 }
 
 }  // namespace sg

@@ -83,17 +83,29 @@ class SymmetryScanner {
 
   // Edge weight image (CV_32F, [0, 1]) of a grey region: Sobel edges, weight 1
   // where `cluster_mask` (CV_8U, same size, may be empty) is non-zero, else
-  // outside_cluster_edge_weight.
+  // outside_cluster_edge_weight. Like cv::Sobel, a region inside a larger image
+  // takes its border pixels from that image (reflected at the image's own
+  // border). Integer Sobel without scratch; `weights` is only (re)allocated when
+  // it does not already have the region's size and type.
   void edgeWeights(const cv::Mat& grey, const cv::Mat& cluster_mask, cv::Mat& weights) const;
+  // Same with cv::Sobel, the reference of edgeWeights(); bit-identical.
+  void edgeWeightsReference(const cv::Mat& grey, const cv::Mat& cluster_mask, cv::Mat& weights) const;
 
   // Every axis/width of `search` whose box fits the height and aspect limits,
   // best-scoring width per axis. `grey` CV_8U and `weights` CV_32F, same size.
+  // Fast path: the box top of every width is found first, so that an axis with
+  // no admissible box builds no tables and the others build them only up to the
+  // widest admissible half-width; the four grey sums come from the region's
+  // integral images (exact integers); the mirrored grey product and the two edge
+  // tables are built one anti-diagonal at a time (vectors over the half-widths),
+  // with the reference's floating-point operations in the reference's order.
+  // Scratch is kept across calls (no allocation once it has grown to the
+  // largest region).
   void compute(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
                std::vector<SymmetryCandidate>& out);
 
-  // Same with the serial reference tables (one dependent chain per table); compute()
-  // builds them with independent chains interleaved and integer sums for the grey
-  // tables, bit-identical.
+  // Same with the serial reference tables (one dependent chain per table, every
+  // half-width of every axis); bit-identical to compute().
   void computeReference(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
                         std::vector<SymmetryCandidate>& out);
 
@@ -104,25 +116,45 @@ class SymmetryScanner {
   const SymmetryParams& params() const { return params_; }
 
  private:
+  // Sums over one box of the per-axis quantities, from either set of tables.
+  struct BoxSums {
+    double e = 0.0, m = 0.0;                          // edge weight, mirrored edge weight
+    double a = 0.0, b = 0.0, aa = 0.0, bb = 0.0, ab = 0.0;  // grey left/right halves
+  };
+
   void prepare(const cv::Mat& grey, const cv::Mat& weights);
+  void prepareFast(const cv::Mat& grey, const cv::Mat& weights);
   void computeImpl(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
                    std::vector<SymmetryCandidate>& out, bool reference);
-  void buildAxis(int axis, int max_half, int rows);
+  void buildAxisFast(int axis, int max_half, int rows);
   void buildAxisReference(int axis, int max_half, int rows);
-  SymmetryCandidate evaluate(int axis, int half, int top, int bottom) const;
+  BoxSums referenceSums(int half, int top, int bottom) const;
+  BoxSums fastSums(int axis, int half, int top, int bottom) const;
+  SymmetryCandidate evaluate(int axis, int half, int top, int bottom, const BoxSums& sums) const;
   int findTop(int x0, int x1, int bottom) const;
+  // A CV_64F/CV_32F/CV_32S header of exactly rows x cols over `storage`, which only grows.
+  static cv::Mat scratch(std::vector<double>& storage, int rows, int cols, int type);
 
   SymmetryParams params_;
-  cv::Mat grey_f_;        // CV_64F copy of the region
+  cv::Mat grey_f_;        // CV_64F copy of the region (reference)
   cv::Mat weights_;       // CV_32F
   cv::Mat mirror_;        // CV_32F, weights dilated horizontally by the tolerance
   cv::Mat weight_integral_;  // CV_64F (rows+1) x (cols+1)
   cv::Mat mirror_integral_;
   cv::Mat grey_integral_, grey_sq_integral_;
   cv::Mat col_nonzero_;   // CV_32S (rows+1) x cols: per column, count of edge pixels above row
-  // Per-axis prefix tables, (max_half+1) x (rows+1), summed over j <= k and rows < r.
+  // Per-axis prefix tables, (max_half+1) x (rows+1), summed over j <= k and rows < r
+  // (the reference builds all seven; the fast path pe_, pm_ and pab_ only, stored
+  // skewed: (rows+max_half+2) x (max_half+1), t(k, r) at row k + r + 1, column k).
   cv::Mat pe_, pm_, pa_, pb_, paa_, pbb_, pab_;
-  cv::Mat grey_u8_;  // the region's grey levels (integer tables)
+  cv::Mat grey_u8_;  // the region's grey levels (reference)
+  // Fast path storage behind the headers above, reused across calls.
+  std::vector<double> weights_store_, mirror_store_, wint_store_, mint_store_, gint_store_, gsq_store_, colnz_store_;
+  std::vector<double> pe_store_, pm_store_, pab_store_;
+  std::vector<double> diagonal_;  // one anti-diagonal of the three table increments
+  std::vector<int> tops_;
+  const std::uint8_t* grey_rows_ = nullptr;  // the region of the current call (row 0) and its row step
+  std::size_t grey_step_ = 0;  // box top per half-width of the current axis (-1: not admissible)
 };
 
 }  // namespace sg
