@@ -92,19 +92,35 @@ void SymmetryScanner::edgeWeights(const cv::Mat& grey, const cv::Mat& cluster_ma
                                   static_cast<std::ptrdiff_t>(step);
     const std::uint8_t* m = cluster_mask.empty() ? nullptr : cluster_mask.ptr<std::uint8_t>(r);
     auto* w = weights.ptr<float>(r);
-    for (int c = 0; c < cols; ++c) {
-      const int cl = c == 0 ? left_col : c - 1;
-      const int cr = c == cols - 1 ? right_col : c + 1;
+    auto pixel = [&](int c, int cl, int cr) {
       const int gx = (up[cr] + 2 * mid[cr] + down[cr]) - (up[cl] + 2 * mid[cl] + down[cl]);
       const int gy = (down[cl] + 2 * down[c] + down[cr]) - (up[cl] + 2 * up[c] + up[cr]);
       const int mag = std::abs(gx) + std::abs(gy);
-      if (mag < threshold) {
-        w[c] = 0.0f;
-      } else {
+      const float strength = std::min(1.0f, static_cast<float>(mag) * inv_full);
+      const float factor = (m == nullptr || m[c] != 0) ? 1.0f : outside;
+      w[c] = mag < threshold ? 0.0f : strength * factor;
+    };
+    pixel(0, left_col, cols > 1 ? 1 : right_col);
+    // Interior columns: no border test, a branch-free body for the vectoriser.
+    if (m == nullptr) {
+      for (int c = 1; c < cols - 1; ++c) {
+        const int gx = (up[c + 1] + 2 * mid[c + 1] + down[c + 1]) - (up[c - 1] + 2 * mid[c - 1] + down[c - 1]);
+        const int gy = (down[c - 1] + 2 * down[c] + down[c + 1]) - (up[c - 1] + 2 * up[c] + up[c + 1]);
+        const int mag = std::abs(gx) + std::abs(gy);
         const float strength = std::min(1.0f, static_cast<float>(mag) * inv_full);
-        w[c] = strength * ((m == nullptr || m[c] != 0) ? 1.0f : outside);
+        w[c] = mag < threshold ? 0.0f : strength;
+      }
+    } else {
+      for (int c = 1; c < cols - 1; ++c) {
+        const int gx = (up[c + 1] + 2 * mid[c + 1] + down[c + 1]) - (up[c - 1] + 2 * mid[c - 1] + down[c - 1]);
+        const int gy = (down[c - 1] + 2 * down[c] + down[c + 1]) - (up[c - 1] + 2 * up[c] + up[c + 1]);
+        const int mag = std::abs(gx) + std::abs(gy);
+        const float strength = std::min(1.0f, static_cast<float>(mag) * inv_full);
+        const float factor = m[c] != 0 ? 1.0f : outside;
+        w[c] = mag < threshold ? 0.0f : strength * factor;
       }
     }
+    if (cols > 1) pixel(cols - 1, cols - 2, right_col);
   }
 }
 
@@ -186,26 +202,25 @@ void SymmetryScanner::prepareFast(const cv::Mat& grey, const cv::Mat& weights) {
 void SymmetryScanner::buildAxisFast(int axis, int max_half, int rows) {
   // Each table is a 2-D prefix sum over half-widths k and rows r:
   //   t(k, r + 1) = ((t(k, r) + t(k - 1, r + 1)) - t(k - 1, r)) + v(k, r).
-  // Only three of the reference's seven are needed: the sums of a, b, a^2, b^2
-  // over a box are exact integers taken from the region's integral images. The
-  // updates on one anti-diagonal s = k + r + 1 depend only on the two previous
-  // anti-diagonals, so the tables are stored skewed, row s + 1 holding
-  // t(k, s - k) for every k, and each anti-diagonal is one loop over k with the
-  // reference's operations in the reference's order (the edge tables are
-  // floating-point sums whose rounding must stay that of the reference; the
-  // mirrored grey product is an exact integer in any order). Rows 0 and 1 are
-  // zero (s = -1 and 0); t(k, r) is row k + r + 1, column k.
+  // Only two of the reference's seven are built: the sums of a, b, a^2, b^2 over
+  // a box are exact integers taken from the region's integral images, and the
+  // mirrored grey product a * b, an exact integer too, is kept as 32-bit column
+  // sums per pair j (ab_prefix_). The two edge tables are floating-point sums
+  // whose rounding must stay that of the reference. Their updates on one
+  // anti-diagonal s = k + r + 1 depend only on the two previous anti-diagonals,
+  // so they are stored skewed, row s + 1 holding t(k, s - k) for every k, and
+  // each anti-diagonal is one vector loop over k with the reference's operations
+  // in the reference's order. Rows 0 and 1 are zero (s = -1 and 0); t(k, r) is
+  // row k + r + 1, column k.
   const int kmax = max_half;
   const int width = kmax + 1;
   const int skew_rows = rows + kmax + 2;
   pe_ = scratch(pe_store_, skew_rows, width, CV_64FC1);
   pm_ = scratch(pm_store_, skew_rows, width, CV_64FC1);
-  pab_ = scratch(pab_store_, skew_rows, width, CV_64FC1);
-  for (cv::Mat* t : {&pe_, &pm_, &pab_}) t->rowRange(0, 2).setTo(0.0);
-  if (diagonal_.size() < 3 * static_cast<std::size_t>(width)) diagonal_.resize(3 * static_cast<std::size_t>(width));
+  for (cv::Mat* t : {&pe_, &pm_}) t->rowRange(0, 2).setTo(0.0);
+  if (diagonal_.size() < 2 * static_cast<std::size_t>(width)) diagonal_.resize(2 * static_cast<std::size_t>(width));
   double* __restrict ve = diagonal_.data();
   double* __restrict vm = ve + width;
-  double* __restrict vab = vm + width;
   const float* w0 = weights_.ptr<float>(0);
   const float* m0 = mirror_.ptr<float>(0);
   const std::uint8_t* g0 = grey_rows_;  // the caller's region, set by computeImpl
@@ -217,19 +232,17 @@ void SymmetryScanner::buildAxisFast(int axis, int max_half, int rows) {
     // (rows below the region) is never read, for larger k it is 0 (r + 1 <= 0).
     const int klo = std::max(1, s - rows);
     const int khi = std::min(kmax, s - 1);
-    for (int k = khi + 1; k <= kmax; ++k) ve[k] = vm[k] = vab[k] = 0.0;
+    for (int k = khi + 1; k <= kmax; ++k) ve[k] = vm[k] = 0.0;
     for (int k = klo; k <= khi; ++k) {
       const std::ptrdiff_t r = s - 1 - k;
       const float* w = w0 + r * wstep;
       const float* m = m0 + r * mstep;
-      const std::uint8_t* g = g0 + r * gstep;
       const double wl = w[axis - k];
       const double wr = w[axis + k];
       const double ml = m[axis - k];
       const double mr = m[axis + k];
       ve[k] = 0.5 * (wl + wr);
       vm[k] = 0.5 * (wl * mr + ml * wr);
-      vab[k] = static_cast<double>(static_cast<std::int64_t>(g[axis - k]) * static_cast<std::int64_t>(g[axis + k]));
     }
     double* __restrict e = pe_.ptr<double>(s + 1);
     const double* __restrict e1 = pe_.ptr<double>(s);
@@ -237,10 +250,7 @@ void SymmetryScanner::buildAxisFast(int axis, int max_half, int rows) {
     double* __restrict mm = pm_.ptr<double>(s + 1);
     const double* __restrict m1 = pm_.ptr<double>(s);
     const double* __restrict m2 = pm_.ptr<double>(s - 1);
-    double* __restrict ab = pab_.ptr<double>(s + 1);
-    const double* __restrict ab1 = pab_.ptr<double>(s);
-    const double* __restrict ab2 = pab_.ptr<double>(s - 1);
-    e[0] = mm[0] = ab[0] = 0.0;
+    e[0] = mm[0] = 0.0;
     // Two half-widths per vector (lane-wise IEEE operations, the same as the scalar ones).
     typedef double F64x2 __attribute__((vector_size(16)));
     auto load = [](const double* p) {
@@ -253,13 +263,23 @@ void SymmetryScanner::buildAxisFast(int axis, int max_half, int rows) {
     for (; k + 1 <= kmax; k += 2) {
       store(e + k, load(e1 + k) + load(e1 + k - 1) - load(e2 + k - 1) + load(ve + k));
       store(mm + k, load(m1 + k) + load(m1 + k - 1) - load(m2 + k - 1) + load(vm + k));
-      store(ab + k, load(ab1 + k) + load(ab1 + k - 1) - load(ab2 + k - 1) + load(vab + k));
     }
     for (; k <= kmax; ++k) {
       e[k] = e1[k] + e1[k - 1] - e2[k - 1] + ve[k];
       mm[k] = m1[k] + m1[k - 1] - m2[k - 1] + vm[k];
-      ab[k] = ab1[k] + ab1[k - 1] - ab2[k - 1] + vab[k];
     }
+  }
+  // Mirrored grey products: exact integers (at most 255^2 per pixel, 255^2 x rows per
+  // column), summed down each column pair j as 32-bit integers, row by row.
+  ab_prefix_.resize(static_cast<std::size_t>(rows + 1) * static_cast<std::size_t>(width));
+  std::int32_t* prev = ab_prefix_.data();
+  for (int j = 0; j <= kmax; ++j) prev[j] = 0;
+  for (int r = 0; r < rows; ++r) {
+    const std::uint8_t* g = g0 + static_cast<std::ptrdiff_t>(r) * gstep + axis;
+    std::int32_t* __restrict cur = prev + width;
+    cur[0] = 0;
+    for (int j = 1; j <= kmax; ++j) cur[j] = prev[j] + static_cast<std::int32_t>(g[-j]) * static_cast<std::int32_t>(g[j]);
+    prev = cur;
   }
 }
 
@@ -331,7 +351,13 @@ SymmetryScanner::BoxSums SymmetryScanner::fastSums(int axis, int half, int top, 
   s.b = boxSum(grey_integral_, top, bottom, axis + 1, axis + half);
   s.aa = boxSum(grey_sq_integral_, top, bottom, axis - half, axis - 1);
   s.bb = boxSum(grey_sq_integral_, top, bottom, axis + 1, axis + half);
-  s.ab = skewSum(pab_);
+  // Mirrored grey product: column sums over [top, bottom] of the pairs j <= half.
+  const std::size_t width = static_cast<std::size_t>(pe_.cols);
+  const std::int32_t* below = ab_prefix_.data() + static_cast<std::size_t>(bottom + 1) * width;
+  const std::int32_t* above = ab_prefix_.data() + static_cast<std::size_t>(top) * width;
+  std::int64_t ab = 0;
+  for (int j = 1; j <= half; ++j) ab += static_cast<std::int64_t>(below[j]) - static_cast<std::int64_t>(above[j]);
+  s.ab = static_cast<double>(ab);
   return s;
 }
 

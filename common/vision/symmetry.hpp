@@ -18,6 +18,7 @@
 // stripe starts (top_edge_fraction of the stripe's weight lies above it).
 //
 // Not re-entrant: one scanner per thread; it keeps its scratch across calls.
+#include <cstdint>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -144,14 +145,15 @@ class SymmetryScanner {
   cv::Mat grey_integral_, grey_sq_integral_;
   cv::Mat col_nonzero_;   // CV_32S (rows+1) x cols: per column, count of edge pixels above row
   // Per-axis prefix tables, (max_half+1) x (rows+1), summed over j <= k and rows < r
-  // (the reference builds all seven; the fast path pe_, pm_ and pab_ only, stored
+  // (the reference builds all seven; the fast path pe_ and pm_ only, stored
   // skewed: (rows+max_half+2) x (max_half+1), t(k, r) at row k + r + 1, column k).
   cv::Mat pe_, pm_, pa_, pb_, paa_, pbb_, pab_;
   cv::Mat grey_u8_;  // the region's grey levels (reference)
   // Fast path storage behind the headers above, reused across calls.
   std::vector<double> weights_store_, mirror_store_, wint_store_, mint_store_, gint_store_, gsq_store_, colnz_store_;
-  std::vector<double> pe_store_, pm_store_, pab_store_;
-  std::vector<double> diagonal_;  // one anti-diagonal of the three table increments
+  std::vector<double> pe_store_, pm_store_;
+  std::vector<double> diagonal_;  // one anti-diagonal of the two edge table increments
+  std::vector<std::int32_t> ab_prefix_;  // (rows+1) x (max_half+1): per pair j, sum of a * b over rows < r
   std::vector<int> tops_;
   const std::uint8_t* grey_rows_ = nullptr;  // the region of the current call (row 0) and its row step
   std::size_t grey_step_ = 0;  // box top per half-width of the current axis (-1: not admissible)
