@@ -66,7 +66,7 @@ std::int64_t littleEndianSigned32(const std::vector<unsigned char>& b, std::size
 
 // Width and height the header declares, read before a decoder allocates for
 // them (a 40-byte PGM header can ask for gigabytes). Nothing when the header is
-// too short to tell; the decoder then fails on it.
+// too short to tell; the decoder then fails on it. JPEG: checkJpegLayout.
 std::optional<std::pair<std::int64_t, std::int64_t>> declaredSize(const std::vector<unsigned char>& b) {
   if (hasPngSignature(b)) {
     if (b.size() < 24 || !std::equal(b.begin() + 12, b.begin() + 16, "IHDR")) return std::nullopt;
@@ -101,25 +101,126 @@ std::optional<std::pair<std::int64_t, std::int64_t>> declaredSize(const std::vec
     }
     return std::pair<std::int64_t, std::int64_t>{values[0], values[1]};
   }
-  if (hasJpegSignature(b)) {
-    std::size_t i = 2;
-    while (i + 9 <= b.size() && b[i] == 0xff) {
-      const unsigned marker = b[i + 1];
-      if (marker == 0xff) {  // fill byte
-        ++i;
-        continue;
-      }
-      if (marker == 0x01 || (marker >= 0xd0 && marker <= 0xd9)) {  // no length field
-        i += 2;
-        continue;
-      }
-      if (marker >= 0xc0 && marker <= 0xcf && marker != 0xc4 && marker != 0xc8 && marker != 0xcc) {
-        return std::pair<std::int64_t, std::int64_t>{bigEndian(b, i + 7, 2), bigEndian(b, i + 5, 2)};
-      }
-      i += 2 + bigEndian(b, i + 2, 2);
-    }
-  }
   return std::nullopt;
+}
+
+// JPEG: the decoder's work is not bounded by the file size. libjpeg decodes
+// every scan over the whole image and, when the entropy-coded data ends early,
+// goes on with zeros (a warning OpenCV cannot turn into an error), so a few
+// hundred bytes can declare a 12079x12602 colour image (tests/fuzz: 3.4 s) or a
+// progressive one with dozens of scans over it (> 10 s). Walked here over the
+// marker segments as libjpeg walks them (segments skipped by their length,
+// bytes between markers passed over, as libjpeg does with a warning), before
+// any decoding:
+//  - every frame header: 1..16384 pixels a side, 1..4 components with sampling
+//    factors 1..4;
+//  - arithmetic coding (SOF9..SOF15) is refused: the bound below needs Huffman
+//    codes, and cameras do not write it;
+//  - at most kMaxJpegScans scans. The standard progressive scripts have 6
+//    (grey) and 10 (colour) scans; each scan costs a pass over its blocks;
+//  - enough entropy-coded data for the declared size: Huffman coding spends at
+//    least one bit on the DC coefficient of every 8x8 block of every component
+//    (a code is at least one bit long), so a complete image has at least
+//    blocks / 8 bytes of it. Less means the decoder would invent the rest.
+constexpr int kMaxJpegScans = 64;
+
+struct JpegFrame {
+  std::int64_t width = 0, height = 0;
+  std::int64_t blocks = 0;  // 8x8 blocks over all components
+  bool arithmetic = false;
+  unsigned marker = 0;
+};
+
+std::string hexMarker(unsigned marker) {
+  static const char* const kDigits = "0123456789ABCDEF";
+  return std::string("0xFF") + kDigits[(marker >> 4) & 0xf] + kDigits[marker & 0xf];
+}
+
+JpegFrame readJpegFrame(const std::string& path, const std::vector<unsigned char>& b, std::size_t at,
+                        std::size_t length, unsigned marker) {
+  // at: the first byte after the length field; length counts itself.
+  if (length < 8) fail(path, "JPEG frame header (" + hexMarker(marker) + ") is too short");
+  JpegFrame f;
+  f.marker = marker;
+  f.height = bigEndian(b, at + 1, 2);
+  f.width = bigEndian(b, at + 3, 2);
+  f.arithmetic = marker >= 0xc9;
+  if (f.width < 1 || f.height < 1 || f.width > kMaxImageSide || f.height > kMaxImageSide) {
+    fail(path, "header declares a " + std::to_string(f.width) + "x" + std::to_string(f.height) +
+                   " image; accepted are 1..16384 pixels a side");
+  }
+  const std::size_t components = b[at + 5];
+  if (components < 1 || components > 4 || length < 8 + 3 * components) {
+    fail(path, "JPEG frame header declares " + std::to_string(components) + " components; accepted are 1..4");
+  }
+  std::int64_t h_max = 1, v_max = 1;
+  for (std::size_t c = 0; c < components; ++c) {
+    const unsigned sampling = b[at + 7 + 3 * c];
+    const std::int64_t h = sampling >> 4, v = sampling & 0xf;
+    if (h < 1 || h > 4 || v < 1 || v > 4) {
+      fail(path, "JPEG component " + std::to_string(c + 1) + " has sampling factors " + std::to_string(h) + "x" +
+                     std::to_string(v) + "; accepted are 1..4");
+    }
+    h_max = std::max(h_max, h);
+    v_max = std::max(v_max, v);
+  }
+  for (std::size_t c = 0; c < components; ++c) {
+    const unsigned sampling = b[at + 7 + 3 * c];
+    const std::int64_t cols = (f.width * (sampling >> 4) + h_max - 1) / h_max;
+    const std::int64_t rows = (f.height * (sampling & 0xf) + v_max - 1) / v_max;
+    f.blocks += ((cols + 7) / 8) * ((rows + 7) / 8);
+  }
+  return f;
+}
+
+void checkJpegLayout(const std::string& path, const std::vector<unsigned char>& b) {
+  std::optional<JpegFrame> largest;
+  int scans = 0;
+  std::int64_t entropy_bytes = 0;  // bytes outside marker segments after the first scan header
+  std::size_t i = 2;
+  const std::size_t n = b.size();
+  while (i < n) {
+    if (b[i] != 0xff) {  // entropy-coded data, or bytes libjpeg skips with a warning
+      if (scans > 0) ++entropy_bytes;
+      ++i;
+      continue;
+    }
+    std::size_t j = i + 1;
+    while (j < n && b[j] == 0xff) ++j;  // fill bytes
+    if (j >= n) break;
+    const unsigned marker = b[j];
+    if (marker == 0x00 || (marker >= 0xd0 && marker <= 0xd7) || marker == 0x01 || marker == 0xd8) {
+      if (marker == 0x00 && scans > 0) ++entropy_bytes;  // stuffed 0xFF data byte
+      i = j + 1;
+      continue;
+    }
+    if (marker == 0xd9) break;  // end of image: libjpeg reads no further
+    if (j + 2 >= n) break;      // truncated; the decoder fails on it
+    const std::size_t length = bigEndian(b, j + 1, 2);
+    if (length < 2) fail(path, "JPEG segment " + hexMarker(marker) + " has a length below 2");
+    if (j + 1 + length > n) break;  // runs past the end; the decoder fails on it
+    const bool frame_header = marker >= 0xc0 && marker <= 0xcf && marker != 0xc4 && marker != 0xc8 && marker != 0xcc;
+    if (frame_header) {
+      const JpegFrame frame = readJpegFrame(path, b, j + 3, length, marker);
+      if (frame.arithmetic) {
+        fail(path, "arithmetic-coded JPEG (frame header " + hexMarker(marker) +
+                       "); only Huffman-coded (baseline, extended or progressive) JPEG is accepted");
+      }
+      if (!largest || frame.blocks > largest->blocks) largest = frame;
+    } else if (marker == 0xda) {
+      if (++scans > kMaxJpegScans) {
+        fail(path, "JPEG has more than " + std::to_string(kMaxJpegScans) +
+                       " scans (start-of-scan markers); a progressive JPEG normally has 6 to 10");
+      }
+    }
+    i = j + 1 + length;
+  }
+  if (largest && scans > 0 && entropy_bytes * 8 < largest->blocks) {
+    fail(path, "JPEG declares a " + std::to_string(largest->width) + "x" + std::to_string(largest->height) +
+                   " image (" + std::to_string(largest->blocks) + " blocks of 8x8) but holds only " +
+                   std::to_string(entropy_bytes) + " bytes of coded data; a complete one needs at least " +
+                   std::to_string((largest->blocks + 7) / 8) + " (one bit per block)");
+  }
 }
 
 // The decoders print to stderr and (JPEG) return half-grey images on truncated
@@ -188,6 +289,7 @@ cv::Mat decodeMono8(const std::vector<unsigned char>& bytes, const std::string& 
                    " image; accepted are 1..16384 pixels a side");
   }
   checkComplete(path, bytes);
+  if (hasJpegSignature(bytes)) checkJpegLayout(path, bytes);
   cv::Mat image;
   try {
     image = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);

@@ -8,6 +8,7 @@
 #
 #   sh tests/fuzz/run_long.sh BUILD_DIR [SECONDS] [OUT] [TARGETS...]
 #   e.g. sh tests/fuzz/run_long.sh build-fuzz 600 /tmp/sg-fuzz-long
+# FUZZ_TIMEOUT (seconds, default 10): an input running longer is a finding.
 set -eu
 build=${1:?usage: run_long.sh BUILD_DIR [SECONDS] [OUT] [TARGETS...]}
 seconds=${2:-600}
@@ -21,7 +22,7 @@ for t in $targets; do
   mkdir -p "$out/corpus/$t"
   echo "== $t: $seconds s, started $(date -u +%H:%M:%S)" | tee -a "$out/summary.txt"
   status=0
-  "$build/tests/fuzz/fuzz_$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+  "$build/tests/fuzz/fuzz_$t" -max_total_time="$seconds" -timeout="${FUZZ_TIMEOUT:-10}" -rss_limit_mb=2048 -print_final_stats=1 \
     -artifact_prefix="$out/$t-" "$out/corpus/$t" "$src/corpus/$t" >"$out/$t.log" 2>&1 || status=$?
   {
     grep -E '^#[0-9]+[[:space:]]+DONE' "$out/$t.log" | tail -1

@@ -129,10 +129,21 @@ TEST(FuzzRegressions, FileNamedPngThatIsDicomDoesNotReachTheDicomReader) {
 
 TEST(FuzzRegressions, JpegWhoseSecondFrameHeaderIsTooTallIsRefused) {
   // The first SOF header passed the size check; the decoder used a later one and
-  // returned a 32x47128 image.
+  // returned a 32x47128 image. (The header walk now passes over the bytes between
+  // segments as libjpeg does, so it finds that header before decoding.)
   const std::string input = regression("image-jpeg-second-frame-header-too-tall");
   EXPECT_EQ(decodeError(std::vector<unsigned char>(input.begin(), input.end())),
-            "frame.png: decodes to a 32x47128 image; accepted are 1..16384 pixels a side");
+            "frame.png: header declares a 32x47128 image; accepted are 1..16384 pixels a side");
+}
+
+TEST(FuzzRegressions, JpegDeclaringAHugeImageWithLittleCodedDataIsRefusedBeforeDecoding) {
+  // 766 bytes: a baseline frame header of 12079x12602 colour pixels, one scan with
+  // 39 bytes of data. libjpeg decoded all 3.6 million blocks, zeros after the data,
+  // for more than 3 s (fuzz_image -timeout=3).
+  const std::string input = regression("image-jpeg-huge-frame-little-data-timeout");
+  EXPECT_EQ(decodeError(std::vector<unsigned char>(input.begin(), input.end())),
+            "frame.png: JPEG declares a 12079x12602 image (3569640 blocks of 8x8) but holds only 39 bytes of "
+            "coded data; a complete one needs at least 446205 (one bit per block)");
 }
 
 TEST(ImageHardening, HeadersDeclaringHugeImagesAreRefusedBeforeAllocating) {
@@ -160,6 +171,88 @@ TEST(ImageHardening, HeadersDeclaringHugeImagesAreRefusedBeforeAllocating) {
     }
   }
   EXPECT_NE(decodeError(jpg).find("declares a 12x0 image"), std::string::npos);
+}
+
+// Offsets of the start-of-scan segments of a JPEG, and of its end-of-image marker.
+std::vector<std::size_t> jpegScanStarts(const std::vector<unsigned char>& jpg, std::size_t& eoi) {
+  std::vector<std::size_t> scans;
+  eoi = 0;
+  for (std::size_t i = 2; i + 1 < jpg.size(); ++i) {
+    if (jpg[i] != 0xff) continue;
+    if (jpg[i + 1] == 0xda) scans.push_back(i);
+    if (jpg[i + 1] == 0xd9) eoi = i;
+  }
+  return scans;
+}
+
+cv::Mat texture(int rows, int cols) {
+  cv::Mat image(rows, cols, CV_8UC3);
+  cv::randu(image, cv::Scalar::all(0), cv::Scalar::all(255));
+  return image;
+}
+
+TEST(ImageHardening, JpegWithMoreThan64ScansIsRefused) {
+  // A progressive colour JPEG has 10 scans; repeat its last one until there are 70
+  // (libjpeg warns and decodes every one over the whole image).
+  const std::vector<unsigned char> jpg = [] {
+    std::vector<unsigned char> bytes;
+    EXPECT_TRUE(cv::imencode(".jpg", texture(64, 80), bytes, {cv::IMWRITE_JPEG_PROGRESSIVE, 1}));
+    return bytes;
+  }();
+  std::size_t eoi = 0;
+  const std::vector<std::size_t> scans = jpegScanStarts(jpg, eoi);
+  ASSERT_EQ(scans.size(), 10u);
+  ASSERT_GT(eoi, scans.back());
+  EXPECT_EQ(decodeMono8(jpg, "frame.jpg").size(), cv::Size(80, 64));  // as written: accepted
+
+  std::vector<unsigned char> many(jpg.begin(), jpg.begin() + static_cast<std::ptrdiff_t>(eoi));
+  for (int k = 0; k < 60; ++k)
+    many.insert(many.end(), jpg.begin() + static_cast<std::ptrdiff_t>(scans.back()),
+                jpg.begin() + static_cast<std::ptrdiff_t>(eoi));
+  many.insert(many.end(), {0xff, 0xd9});
+  EXPECT_EQ(decodeError(many),
+            "frame.png: JPEG has more than 64 scans (start-of-scan markers); a progressive JPEG normally has 6 to 10");
+}
+
+TEST(ImageHardening, CompleteJpegsOfUniformImagesAreAccepted) {
+  // The least coded data a complete Huffman-coded JPEG can have: a uniform image,
+  // optimised Huffman tables, grey (one component), baseline and progressive.
+  const cv::Mat black(1504, 2000, CV_8UC1, cv::Scalar(0));
+  for (const int progressive : {0, 1}) {
+    std::vector<unsigned char> bytes;
+    ASSERT_TRUE(cv::imencode(".jpg", black, bytes,
+                             {cv::IMWRITE_JPEG_OPTIMIZE, 1, cv::IMWRITE_JPEG_PROGRESSIVE, progressive}));
+    SCOPED_TRACE("progressive " + std::to_string(progressive) + ", " + std::to_string(bytes.size()) + " bytes");
+    const cv::Mat decoded = decodeMono8(bytes, "black.jpg");
+    EXPECT_EQ(decoded.size(), black.size());
+    EXPECT_EQ(cv::countNonZero(decoded), 0);
+  }
+}
+
+TEST(ImageHardening, JpegWhoseCodedDataIsCutShortIsRefused) {
+  // A real image with most of its scan data removed, the end marker kept.
+  std::vector<unsigned char> jpg = encode(".jpg", texture(480, 640));
+  std::size_t eoi = 0;
+  const std::vector<std::size_t> scans = jpegScanStarts(jpg, eoi);
+  ASSERT_EQ(scans.size(), 1u);
+  const std::size_t keep = scans[0] + 200;
+  ASSERT_LT(keep, eoi);
+  jpg.erase(jpg.begin() + static_cast<std::ptrdiff_t>(keep), jpg.begin() + static_cast<std::ptrdiff_t>(eoi));
+  EXPECT_NE(decodeError(jpg).find("JPEG declares a 640x480 image (7200 blocks of 8x8) but holds only"),
+            std::string::npos);
+}
+
+TEST(ImageHardening, ArithmeticCodedJpegIsRefused) {
+  std::vector<unsigned char> jpg = encode(".jpg", cv::Mat(16, 16, CV_8UC1, cv::Scalar(9)));
+  for (std::size_t i = 2; i + 1 < jpg.size(); ++i) {
+    if (jpg[i] == 0xff && jpg[i + 1] == 0xc0) {
+      jpg[i + 1] = 0xc9;  // SOF9: extended sequential, arithmetic coding
+      break;
+    }
+  }
+  EXPECT_EQ(decodeError(jpg),
+            "frame.png: arithmetic-coded JPEG (frame header 0xFFC9); only Huffman-coded (baseline, extended or "
+            "progressive) JPEG is accepted");
 }
 
 }  // namespace
