@@ -1,5 +1,8 @@
 # SG_SANITIZE: AddressSanitizer + UndefinedBehaviorSanitizer for every target.
 # SG_TSAN: ThreadSanitizer (cannot be combined with ASan).
+# SG_BANDS_STD_THREAD (default: SG_TSAN): the row bands (vision/parallel_bands.hpp)
+# run on std::threads, whose start and join TSan sees, instead of Debian's
+# uninstrumented libtbb. tests/tsan/run_tsan.sh builds and runs that tree.
 # SG_FUZZ: libFuzzer targets in tests/fuzz (clang only); every target is built
 # with ASan + UBSan and libFuzzer's coverage instrumentation.
 if(SG_SANITIZE AND SG_TSAN)
@@ -23,4 +26,7 @@ endif()
 if(SG_TSAN)
   add_compile_options(-fsanitize=thread -fno-omit-frame-pointer)
   add_link_options(-fsanitize=thread)
+endif()
+if(SG_BANDS_STD_THREAD)
+  add_compile_definitions(SG_BANDS_STD_THREAD)
 endif()

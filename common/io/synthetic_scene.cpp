@@ -6,12 +6,10 @@
 #include <limits>
 #include <sstream>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include "config/errors.hpp"
 #include "config/params.hpp"
 #include "io/synthetic_model.hpp"
+#include "vision/parallel_bands.hpp"
 
 namespace sg {
 
@@ -208,9 +206,7 @@ void SyntheticSceneRenderer::compute(std::uint64_t seed, StereoPair& out, Execut
     if (execution == Execution::kSerial) {
       for (int b = 0; b < bands; ++b) band(b);
     } else {
-      tbb::parallel_for(tbb::blocked_range<int>(0, bands), [&](const tbb::blocked_range<int>& r) {
-        for (int b = r.begin(); b < r.end(); ++b) band(b);
-      });
+      forEachBand(bands, band);
     }
   };
   runBands(pass1);

@@ -3,10 +3,8 @@
 #include <algorithm>
 #include <cstring>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include "config/errors.hpp"
+#include "vision/parallel_bands.hpp"
 #include "vision/simd_match.hpp"
 
 namespace sg {
@@ -133,12 +131,10 @@ void Correlator::forEachRow(int rows, Fn&& fn) {
   const int band = params_.band_rows;
   const int bands = (rows + band - 1) / band;
   if (static_cast<int>(band_scratch_.size()) < bands) band_scratch_.resize(static_cast<std::size_t>(bands));
-  tbb::parallel_for(tbb::blocked_range<int>(0, bands), [&](const tbb::blocked_range<int>& range) {
-    for (int k = range.begin(); k != range.end(); ++k) {
-      std::vector<std::uint8_t>& scratch = bandScratch(k);
-      const int y1 = std::min((k + 1) * band, rows);
-      for (int y = k * band; y < y1; ++y) fn(y, scratch);
-    }
+  forEachBand(bands, [&](int k) {
+    std::vector<std::uint8_t>& scratch = bandScratch(k);
+    const int y1 = std::min((k + 1) * band, rows);
+    for (int y = k * band; y < y1; ++y) fn(y, scratch);
   });
 }
 

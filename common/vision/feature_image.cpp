@@ -3,10 +3,8 @@
 #include <algorithm>
 #include <cstdlib>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include "config/errors.hpp"
+#include "vision/parallel_bands.hpp"
 #include "vision/simd_match.hpp"
 
 namespace sg {
@@ -76,12 +74,10 @@ void FeatureExtractor::compute(const cv::Mat& grey, cv::Mat& features) {
   const int band = params_.band_rows;
   const int bands = (grey.rows + band - 1) / band;
   if (static_cast<int>(band_bytes_.size()) < bands) band_bytes_.resize(static_cast<std::size_t>(bands));
-  tbb::parallel_for(tbb::blocked_range<int>(0, bands), [&](const tbb::blocked_range<int>& range) {
-    for (int b = range.begin(); b != range.end(); ++b) {
-      const int y0 = b * band;
-      const int y1 = std::min(y0 + band, grey.rows);
-      computeRowsFast(grey, features, y0, y1, band_bytes_[static_cast<std::size_t>(b)]);
-    }
+  forEachBand(bands, [&](int b) {
+    const int y0 = b * band;
+    const int y1 = std::min(y0 + band, grey.rows);
+    computeRowsFast(grey, features, y0, y1, band_bytes_[static_cast<std::size_t>(b)]);
   });
 }
 

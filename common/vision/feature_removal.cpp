@@ -4,10 +4,8 @@
 #include <cmath>
 #include <cstdlib>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include "config/errors.hpp"
+#include "vision/parallel_bands.hpp"
 #include "vision/simd_match.hpp"
 
 namespace sg {
@@ -144,10 +142,9 @@ void FeatureRemover::compute(const cv::Mat& left, const cv::Mat& right, const Gr
   const int band = params_.band_rows;
   const int bands = (left.rows + band - 1) / band;
   if (static_cast<int>(band_scratch_.size()) < bands) band_scratch_.resize(static_cast<std::size_t>(bands));
-  tbb::parallel_for(tbb::blocked_range<int>(0, bands), [&](const tbb::blocked_range<int>& range) {
-    for (int b = range.begin(); b != range.end(); ++b)
-      removeRowsFast(left, right, ground, remaining, labels, changed_rows, b * band, std::min((b + 1) * band, left.rows),
-                     band_scratch_[static_cast<std::size_t>(b)]);
+  forEachBand(bands, [&](int b) {
+    removeRowsFast(left, right, ground, remaining, labels, changed_rows, b * band, std::min((b + 1) * band, left.rows),
+                   band_scratch_[static_cast<std::size_t>(b)]);
   });
 }
 
