@@ -390,6 +390,19 @@ void GroundEstimator::rollFit(int w, GroundProfile& ground) {
   const double slope = (sw * sxd - sx * sd) / det;
   if (std::abs(slope) * w < params_.min_roll_px) return;
   ground.offset_per_column = static_cast<float>(slope);
+  // On a transversal slope the row's correlation peak is smeared over the offsets the row
+  // spans, and the line follows wherever the ground shows most: the strips' fit says where the
+  // line lies at the reference column, and the whole line moves there (rows keep their spacing).
+  const double shift = (sd - slope * sx) / sw;
+  // A prior comes from the mounting, not from this smeared peak: it stays where it is.
+  if (ground.source != GroundSource::kHough || !std::isfinite(shift) || std::abs(shift) < 0.5 ||
+      std::abs(shift) > search)
+    return;
+  const float s = static_cast<float>(shift);
+  for (std::size_t y = static_cast<std::size_t>(std::max(ground.horizon_row, 0)); y < ground.offset_per_row.size(); ++y)
+    if (std::isfinite(ground.offset_per_row[y])) ground.offset_per_row[y] += s;
+  for (cv::Point2f& v : ground.vertices)
+    if (v.y >= static_cast<float>(ground.horizon_row)) v.x += s;
 }
 
 void GroundEstimator::compute(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous,

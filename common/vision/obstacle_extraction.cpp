@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 
 #include "config/errors.hpp"
 
@@ -40,29 +41,54 @@ double overlapOfSmaller(const cv::Rect& a, const cv::Rect& b) {
 ObstacleExtractor::ObstacleExtractor(const ObstacleParams& params) : params_(params) { params_.validate(); }
 
 void ObstacleExtractor::prepareContactRows(const GroundProfile& ground, int rows, int offsets) {
-  contact_row_.assign(static_cast<std::size_t>(offsets), rows);
+  rows_ = rows;
+  per_column_ = 0.0f;
+  reference_column_ = 0.0f;
+  ground_top_ = rows;
+  ground_reach_.assign(static_cast<std::size_t>(rows), -std::numeric_limits<float>::infinity());
   row_limit_.assign(static_cast<std::size_t>(offsets), rows - 1);
   if (ground.source == GroundSource::kNone || static_cast<int>(ground.offset_per_row.size()) != rows) return;
-  const int top = std::clamp(ground.horizon_row, 0, rows);
-  for (int d = 0; d < offsets; ++d) {
-    for (int y = top; y < rows; ++y) {
-      const float g = ground.offset_per_row[static_cast<std::size_t>(y)];
-      if (std::isfinite(g) && g >= static_cast<float>(d) - 0.5f) {
-        contact_row_[static_cast<std::size_t>(d)] = y;
-        break;
-      }
-    }
-    // An obstacle at offset d hides ground farther than itself; rows whose ground is about as
-    // near (or nearer) show the ground and its residue, not the obstacle.
-    for (int y = top; y < rows; ++y) {
-      const float g = ground.offset_per_row[static_cast<std::size_t>(y)];
-      if (std::isfinite(g) && static_cast<double>(g) >= d - params_.ground_clearance_px) {
-        row_limit_[static_cast<std::size_t>(d)] = y - 1;
-        break;
-      }
-    }
+  if (std::isfinite(ground.offset_per_column) && std::isfinite(ground.reference_column)) {
+    per_column_ = ground.offset_per_column;
+    reference_column_ = ground.reference_column;
   }
+  // Running maximum of the ground offset from the horizon down: the first row whose ground
+  // reaches an offset is then a binary search (the polyline need not be monotonic).
+  ground_top_ = std::clamp(ground.horizon_row, 0, rows);
+  float reach = -std::numeric_limits<float>::infinity();
+  for (int y = ground_top_; y < rows; ++y) {
+    const float g = ground.offset_per_row[static_cast<std::size_t>(y)];
+    if (std::isfinite(g)) reach = std::max(reach, g);
+    ground_reach_[static_cast<std::size_t>(y)] = reach;
+  }
+  // The offset histograms count whole rows: there the most permissive column decides (the
+  // per-column limits below then keep the ground residue out of the clusters).
+  const float spread = std::abs(per_column_) * static_cast<float>(std::max(reference_column_, 0.0f) + 1.0f);
+  const float spread_right = std::abs(per_column_) * std::abs(static_cast<float>(cols_) - reference_column_);
+  const float widest = std::max(spread, spread_right);
+  for (int d = 0; d < offsets; ++d)
+    row_limit_[static_cast<std::size_t>(d)] =
+        firstRowReaching(static_cast<float>(d) + widest - static_cast<float>(params_.ground_clearance_px)) - 1;
 }
+
+int ObstacleExtractor::firstRowReaching(float offset) const {
+  const auto begin = ground_reach_.begin() + ground_top_;
+  const auto it = std::lower_bound(begin, ground_reach_.end(), offset);
+  return static_cast<int>(it - ground_reach_.begin());
+}
+
+float ObstacleExtractor::groundRelative(int offset, int x) const {
+  // An obstacle at `offset` in column x meets the ground where the ground offset at the
+  // reference column equals offset minus the transversal change between the two columns.
+  return static_cast<float>(offset) - per_column_ * (static_cast<float>(x) - reference_column_);
+}
+
+int ObstacleExtractor::rowLimitAt(int offset, int x) const {
+  return std::min(rows_ - 1,
+                  firstRowReaching(groundRelative(offset, x) - static_cast<float>(params_.ground_clearance_px)) - 1);
+}
+
+int ObstacleExtractor::contactRowAt(int offset, int x) const { return firstRowReaching(groundRelative(offset, x) - 0.5f); }
 
 int ObstacleExtractor::rowLimit(int offset) const { return row_limit_[static_cast<std::size_t>(offset)]; }
 
@@ -159,6 +185,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   banned_.assign(static_cast<std::size_t>(offsets), 0);
   row_median_.assign(static_cast<std::size_t>(rows), 0);
   median_stale_.assign(static_cast<std::size_t>(rows), 1);
+  cols_ = cols;
   prepareContactRows(ground, rows, offsets);
   const bool ground_known = ground.source != GroundSource::kNone;
   const double background =
@@ -237,13 +264,17 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
                             : 0));
       return cell - kNoMatch;
     };
+    // Per column, the rows above the ground of d* (on a transversal slope they differ).
+    col_limit_.resize(static_cast<std::size_t>(cols));
+    for (int x = 0; x < cols; ++x) col_limit_[static_cast<std::size_t>(x)] = rowLimitAt(best, x);
+    auto inStripe = [&](int y, int x) { return y <= col_limit_[static_cast<std::size_t>(x)]; };
     // Column histogram over the rows that show the offset.
     col_hist_.assign(static_cast<std::size_t>(cols), 0.0f);
     for (int y = 0; y <= limit; ++y) {
       if (matches.ptr<int>(y)[best] - row_median_[static_cast<std::size_t>(y)] < params_.min_row_excess) continue;
       const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
       for (int x = 0; x < cols; ++x)
-        if (l[x]) col_hist_[static_cast<std::size_t>(x)] += static_cast<float>(maskAt(y, x));
+        if (l[x] && inStripe(y, x)) col_hist_[static_cast<std::size_t>(x)] += static_cast<float>(maskAt(y, x));
     }
     Extent cx = extent(col_hist_, 0, cols - 1, 0, cols - 1);
     Extent cy;
@@ -254,7 +285,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
         int sum = 0;
         for (int x = cx.lo; x <= cx.hi; ++x)
-          if (l[x]) sum += maskAt(y, x);
+          if (l[x] && inStripe(y, x)) sum += maskAt(y, x);
         row_hist_[static_cast<std::size_t>(y)] = static_cast<float>(sum);
       }
       cy = extent(row_hist_, 0, limit, 0, limit);
@@ -263,7 +294,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         for (int y = cy.lo; y <= cy.hi; ++y) {
           const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
           for (int x = 0; x < cols; ++x)
-            if (l[x]) col_hist_[static_cast<std::size_t>(x)] += static_cast<float>(maskAt(y, x));
+            if (l[x] && inStripe(y, x)) col_hist_[static_cast<std::size_t>(x)] += static_cast<float>(maskAt(y, x));
         }
         cx = extent(col_hist_, 0, cols - 1, cx.lo, cx.hi);
       }
@@ -290,7 +321,8 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         // Column evidence at d, computed only for the columns a run walks over.
         auto columnAt = [&](int x) {
           int count = 0;
-          for (int y = ya; y <= yb; ++y)
+          const int yc = std::min(yb, rowLimitAt(d, x));
+          for (int y = ya; y <= yc; ++y)
             count += matchAt(remaining.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, d - tol, d + tol, grey,
                              half, cols);
           col_hist_[static_cast<std::size_t>(x)] = static_cast<float>(count);
@@ -326,7 +358,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
           const std::uint8_t* r = right.ptr<std::uint8_t>(y);
           for (int x = ex0; x <= ex1; ++x) {
-            if (x >= x0 && x <= x1) continue;
+            if ((x >= x0 && x <= x1) || y > rowLimitAt(d, x)) continue;
             if (matchAt(l, r, x, d - tol, d + tol, grey, half, cols)) row_hist_[static_cast<std::size_t>(y)] += 1.0f;
           }
         }
@@ -352,8 +384,14 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     // Obstacles stand on the ground: the bottom is the contact row of the nearest offset.
     bool floating = false;
     if (ground_known) {
-      const int contact = contact_row_[static_cast<std::size_t>(dmax)];
-      if (contact < rows) {
+      // The lowest contact over the box's columns (a receding wall meets the ground nearest
+      // at its near end; on a transversal slope the contact moves along the box).
+      int contact = -1;
+      for (int x = x0; x <= x1; ++x) {
+        const int c = contactRowAt(col_offset_[static_cast<std::size_t>(x)], x);
+        if (c < rows) contact = std::max(contact, c);
+      }
+      if (contact >= 0) {
         const double allowed =
             std::max(static_cast<double>(params_.contact_tolerance_px), params_.contact_tolerance_fraction * (y1 - y0 + 1));
         if (y1 < contact - allowed) floating = true;

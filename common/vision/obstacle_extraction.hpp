@@ -106,11 +106,21 @@ class ObstacleExtractor {
   void offsetHistogram(const cv::Mat& matches, const GroundProfile& ground);
   // Extent around the strongest bin of `hist` within [peak_lo, peak_hi], limited to [lo, hi].
   Extent extent(const std::vector<float>& hist, int lo, int hi, int peak_lo, int peak_hi);
-  int rowLimit(int offset) const;  // last row an obstacle at this offset may occupy in the histograms
+  int rowLimit(int offset) const;  // last row counted in the offset histogram (most permissive column)
+  int firstRowReaching(float offset) const;  // first row whose ground offset reaches `offset`, rows when none
+  float groundRelative(int offset, int x) const;  // `offset` in column x as a ground offset at the reference column
+  int rowLimitAt(int offset, int x) const;  // last row an obstacle at this offset may occupy in column x
+  int contactRowAt(int offset, int x) const;  // ground contact row of this offset in column x, rows when none
 
   ObstacleParams params_;
-  std::vector<int> contact_row_;   // per offset: ground contact row, rows when none
-  std::vector<int> row_limit_;     // per offset: last row counted in its histograms
+  int rows_ = 0;
+  int cols_ = 0;
+  int ground_top_ = 0;             // first ground row (the horizon)
+  float per_column_ = 0.0f;        // transversal slope of the ground (offset per column)
+  float reference_column_ = 0.0f;
+  std::vector<float> ground_reach_;  // per row: largest ground offset from the horizon down to it
+  std::vector<int> row_limit_;       // per offset: last row counted in its offset histogram
+  std::vector<int> col_limit_;       // per column: last row of the current candidate's offset
   std::vector<float> offset_hist_;
   std::vector<int> row_median_;
   std::vector<std::uint8_t> median_stale_;  // rows whose match counts changed since their median

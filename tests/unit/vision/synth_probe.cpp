@@ -4,6 +4,11 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include <string>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include "io/synthetic_scene.hpp"
 #include "test_helpers.hpp"
 #include "vision/segmenter.hpp"
@@ -49,6 +54,15 @@ int main(int argc, char** argv) {
         std::printf("   row %3zu truth %6.2f found %6.2f\n", y, static_cast<double>(t.ground_offset_per_row[y]),
                     static_cast<double>(r.ground.offset_per_row[y]));
     }
+    cv::Mat canvas;
+    const char* draw_dir = std::getenv("DRAW");
+    if (draw_dir) {
+      // Left image; features labelled as obstacles tinted; truth green (wanted) / yellow, found red.
+      cv::cvtColor(pair.left, canvas, cv::COLOR_GRAY2BGR);
+      for (int y = 0; y < canvas.rows; ++y)
+        for (int x = 0; x < canvas.cols; ++x)
+          if (r.labels.at<std::uint8_t>(y, x) >= kLabelFirstObstacle) canvas.at<cv::Vec3b>(y, x) = {255, 0, 255};
+    }
     std::vector<int> used(r.obstacles.size(), 0);
     for (std::size_t k = 0; k < t.objects.size(); ++k) {
       const ObjectLabel& o = t.objects[k];
@@ -65,6 +79,11 @@ int main(int argc, char** argv) {
       if (best >= 0 && best_iou > 0.2) used[static_cast<std::size_t>(best)] = 1;
       const bool hit = best >= 0 && best_iou >= 0.5 && std::abs(r.obstacles[static_cast<std::size_t>(best)].offset_px - d_true) <= 1.0;
       if (want) { ++wanted; found += hit; }
+      if (draw_dir && t.object_visible_px[k] > 0) {
+        cv::rectangle(canvas, box, want ? cv::Scalar(0, 255, 0) : cv::Scalar(0, 255, 255), 1);
+        cv::putText(canvas, std::to_string(static_cast<int>(std::lround(d_true))), box.tl() + cv::Point(0, -2),
+                    cv::FONT_HERSHEY_PLAIN, 0.9, cv::Scalar(0, 255, 0));
+      }
       std::printf("   truth %-10s z %5.1f d %5.1f box [%d %d %d %d] vis %d %s | best iou %.2f d %d %s\n", o.type.c_str(), o.location_m[2], d_true,
                   box.x, box.y, box.x + box.width - 1, box.y + box.height - 1, t.object_visible_px[k], want ? "WANT" : "    ",
                   best_iou, best >= 0 ? r.obstacles[static_cast<std::size_t>(best)].offset_px : -1, want ? (hit ? "ok" : "MISS") : "");
@@ -78,9 +97,15 @@ int main(int argc, char** argv) {
           if (r.labels.at<std::uint8_t>(y, x) == ob.label && t.object_id.at<std::uint16_t>(y, x) >= 2) ++on_objects;
       const bool spur = on_objects < ob.feature_count / 2;
       spurious += spur;
+      if (draw_dir) {
+        cv::rectangle(canvas, ob.box, cv::Scalar(0, 0, 255), 1);
+        cv::putText(canvas, std::to_string(ob.offset_px), cv::Point(ob.box.x, ob.box.y + ob.box.height + 11),
+                    cv::FONT_HERSHEY_PLAIN, 0.9, cv::Scalar(0, 0, 255));
+      }
       std::printf("   found d %d [%d-%d] box [%d %d %d %d] feat %d on-objects %d %s\n", ob.offset_px, ob.min_offset_px, ob.max_offset_px, ob.box.x, ob.box.y,
                   ob.box.x + ob.box.width - 1, ob.box.y + ob.box.height - 1, ob.feature_count, on_objects, spur ? "SPURIOUS" : "");
     }
+    if (draw_dir) cv::imwrite(std::string(draw_dir) + "/seed" + std::to_string(seed) + ".png", canvas);
   }
   std::printf("found %d / %d, spurious %d over %d frames\n", found, wanted, spurious, n);
 }
