@@ -394,8 +394,23 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       if (contact >= 0) {
         const double allowed =
             std::max(static_cast<double>(params_.contact_tolerance_px), params_.contact_tolerance_fraction * (y1 - y0 + 1));
-        if (y1 < contact - allowed) floating = true;
-        else y1 = contact;
+        if (y1 < contact - allowed) {
+          // Weakly textured lower parts (legs, a plain lower body) fall below the histogram's
+          // fraction of the peak: the cluster still stands on the ground when most rows down
+          // to its contact keep some match at d* inside its columns.
+          int rows_with_match = 0, rows_seen = 0;
+          for (int y = y1 + 1; y < std::min(contact, rows); ++y) {
+            ++rows_seen;
+            const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+            for (int x = x0; x <= x1; ++x)
+              if (l[x] && inStripe(y, x) && maskAt(y, x)) {
+                ++rows_with_match;
+                break;
+              }
+          }
+          floating = rows_with_match < params_.min_support_fraction * rows_seen;
+        }
+        if (!floating) y1 = contact;
       }
     }
     const cv::Rect box(x0, y0, x1 - x0 + 1, y1 - y0 + 1);

@@ -49,6 +49,8 @@ struct ObstacleParams {
                                     // unmatched texture (occlusions, aliasing) stay well below it
   int contact_tolerance_px = 12;    // allowed gap between the cluster bottom and its ground contact row ...
   double contact_tolerance_fraction = 0.35;  // ... or this fraction of its height, whichever is larger
+  double min_support_fraction = 0.5;  // share of the rows between a cluster and its contact that must keep a
+                                      // match at its offset for it to stand on the ground (legs)
   double ground_clearance_px = 2.5;  // rows whose ground offset is within this of d are left out (ground residue)
   double background_margin_px = 1.5;  // offsets within this of the background line are background residue
   bool grow_walls = true;           // grow clusters over neighbouring offsets (walls receding in depth)
@@ -73,6 +75,8 @@ struct ObstacleParams {
     v.field("min_match_fraction", min_match_fraction, 0.0, 1.0, "", "matched share of the box's features");
     v.field("contact_tolerance_px", contact_tolerance_px, 0, 100000, "pixels", "bottom to ground contact gap");
     v.field("contact_tolerance_fraction", contact_tolerance_fraction, 0.0, 10.0, "", "same, fraction of the height");
+    v.field("min_support_fraction", min_support_fraction, 0.0, 1.0, "",
+            "rows down to the ground contact that must keep a match");
     v.field("ground_clearance_px", ground_clearance_px, 0.0, 100.0, "pixels",
             "histograms of offset d skip rows whose ground offset is above d minus this");
     v.field("background_margin_px", background_margin_px, 0.0, 100.0, "pixels", "background residue margin");

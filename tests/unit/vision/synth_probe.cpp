@@ -32,6 +32,9 @@ int main(int argc, char** argv) {
     if (const char* v = std::getenv("FEAT")) sgp.obstacles.min_cluster_features = std::atoi(v);
     if (const char* v = std::getenv("FRAC")) sgp.obstacles.min_match_fraction = std::atof(v);
     if (const char* v = std::getenv("EXCESS")) sgp.obstacles.min_row_excess = std::atoi(v);
+    if (const char* v = std::getenv("SUPPORT")) sgp.obstacles.min_support_fraction = std::atof(v);
+    if (const char* v = std::getenv("GAP")) sgp.obstacles.gap_px = std::atoi(v);
+    if (const char* v = std::getenv("EXTENT")) sgp.obstacles.extent_fraction = std::atof(v);
     Segmenter seg(sgp);
     SegmentationResult r;
     segmentPair(fx, seg, pair.left, pair.right, pair.rig, r);
