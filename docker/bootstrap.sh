@@ -66,9 +66,10 @@ sanitizer_tests() {
   say "configuring $dir (ASan + UBSan)"
   # -O1 -g1: line tables for the reports at a fraction of the compile time of -O2 -g.
   cmake -S "$root" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSG_WERROR="$werror" -DSG_SANITIZE=ON \
-        -DSG_BUILD_BENCH=OFF -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g1" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1"
+        -DSG_BUILD_BENCH=OFF -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g1" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" || return 1
   say "building the unit and integration tests with ASan + UBSan"
-  sg_ccache cmake --build "$dir" -j "$jobs"
+  # Called as `sanitizer_tests || status=1`, where set -e does not apply: every step says so itself.
+  sg_ccache cmake --build "$dir" -j "$jobs" || return 1
   say "running the unit and integration tests under ASan + UBSan"
   ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1} \
   UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1} \
@@ -81,8 +82,8 @@ fuzz_smoke() {
   [ "${CI:-}" = true ] && werror=ON
   say "configuring $dir (clang, libFuzzer)"
   cmake -S "$root" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSG_WERROR="$werror" -DSG_FUZZ=ON \
-        -DSG_BUILD_BENCH=OFF -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14
-  sg_ccache cmake --build "$dir" -j "$jobs" --target fuzz_targets
+        -DSG_BUILD_BENCH=OFF -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 || return 1
+  sg_ccache cmake --build "$dir" -j "$jobs" --target fuzz_targets || return 1
   say "running every fuzz target for a short while"
   ctest --test-dir "$dir" -j "$jobs" -L fuzz --output-on-failure --timeout 600
 }
