@@ -354,13 +354,15 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         const int ex1 = grow_right ? right_end : x0 - 1;
         // Rows of the extension.
         row_hist_.assign(static_cast<std::size_t>(rows), 0.0f);
-        for (int y = ya; y <= yb; ++y) {
-          const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
-          const std::uint8_t* r = right.ptr<std::uint8_t>(y);
-          for (int x = ex0; x <= ex1; ++x) {
-            if ((x >= x0 && x <= x1) || y > rowLimitAt(d, x)) continue;
-            if (matchAt(l, r, x, d - tol, d + tol, grey, half, cols)) row_hist_[static_cast<std::size_t>(y)] += 1.0f;
-          }
+        // Column by column: each column's ground limit is looked up once (whole counts, so the
+        // order of the additions does not matter).
+        for (int x = ex0; x <= ex1; ++x) {
+          if (x >= x0 && x <= x1) continue;
+          const int yc = std::min(yb, rowLimitAt(d, x));
+          for (int y = ya; y <= yc; ++y)
+            if (matchAt(remaining.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, d - tol, d + tol, grey, half,
+                        cols))
+              row_hist_[static_cast<std::size_t>(y)] += 1.0f;
         }
         const Extent ey = extent(row_hist_, ya, yb, ya, yb);
         if (ey.hi >= ey.lo) {
