@@ -72,7 +72,7 @@ int main(int argc, char** argv) {
       const cv::Rect box(cv::Point(static_cast<int>(o.box[0]), static_cast<int>(o.box[1])),
                          cv::Point(static_cast<int>(o.box[2]) + 1, static_cast<int>(o.box[3]) + 1));
       const double d_true = pair.rig.focal_px * pair.rig.baseline_m / o.location_m[2];
-      const bool want = box.height > 40 && o.location_m[2] < 30.0;
+      const bool want = t.object_visible_px[k] > 0 && box.height > 40 && o.location_m[2] < 30.0;
       int best = -1;
       double best_iou = 0;
       for (std::size_t j = 0; j < r.obstacles.size(); ++j) {
@@ -80,7 +80,10 @@ int main(int argc, char** argv) {
         if (v > best_iou) { best_iou = v; best = static_cast<int>(j); }
       }
       if (best >= 0 && best_iou > 0.2) used[static_cast<std::size_t>(best)] = 1;
-      const bool hit = best >= 0 && best_iou >= 0.5 && std::abs(r.obstacles[static_cast<std::size_t>(best)].offset_px - d_true) <= 1.0;
+      bool hit = false;  // as the acceptance test: any cluster with IoU >= 0.5 and the offset (or its range) within 1
+      for (const ObstacleCluster& c : r.obstacles)
+        hit = hit || (test::iou(c.box, box) >= 0.5 &&
+                      (std::abs(c.offset_px - d_true) <= 1.0 || (d_true >= c.min_offset_px - 1.0 && d_true <= c.max_offset_px + 1.0)));
       if (want) { ++wanted; found += hit; }
       if (draw_dir && t.object_visible_px[k] > 0) {
         cv::rectangle(canvas, box, want ? cv::Scalar(0, 255, 0) : cv::Scalar(0, 255, 255), 1);
