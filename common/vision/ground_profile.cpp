@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "config/errors.hpp"
 #include "vision/correlation.hpp"
@@ -95,123 +96,136 @@ std::optional<GroundLine> GroundEstimator::hough(const std::vector<std::uint8_t>
   return line;
 }
 
+namespace {
+// Bin shift of a (offset, slope) pair whose rounding depends on the row (below).
+constexpr int kRowDependentShift = std::numeric_limits<int>::min() / 2;
+}  // namespace
+
 std::optional<GroundLine> GroundEstimator::houghFast(const std::vector<std::uint8_t>& use, int rows, int offsets) {
   // Same votes and sums as hough(), in the same order per bin: bit-identical.
+  // The reference adds the votes peak by peak; a bin's sum depends only on the
+  // order of the votes it receives, which stays the peaks' order when the loops
+  // are swapped: here slope by slope, each slope's votes landing in one row of
+  // n_bins floats (in L1), and only three slope rows kept for the 3x3 sums.
   const int n_slopes = static_cast<int>(std::floor((params_.max_slope - params_.min_slope) / params_.slope_step)) + 1;
   const int n_bins = 2 * rows;
-  if (slope_table_offsets_ != offsets || slope_table_.size() != static_cast<std::size_t>(offsets) * n_slopes) {
-    // offset / slope for every offset and slope, as hough() divides them.
-    slope_table_.resize(static_cast<std::size_t>(offsets) * static_cast<std::size_t>(n_slopes));
-    for (int d = 0; d < offsets; ++d)
-      for (int k = 0; k < n_slopes; ++k) {
-        const double s = params_.min_slope + k * params_.slope_step;
-        slope_table_[static_cast<std::size_t>(d) * static_cast<std::size_t>(n_slopes) + static_cast<std::size_t>(k)] =
-            d / s;
+  if (slope_table_offsets_ != offsets || bin_shift_.size() != static_cast<std::size_t>(offsets) * n_slopes) {
+    // The reference's bin is lround(row - offset / s) + rows. Where offset / s = q is
+    // farther than 1e-6 from a half-integer, row - q (|row - q| < 2^31, so rounded by at
+    // most 2^-22) rounds to row - n for the integer n nearest to q, whatever the row:
+    // the bin is row + rows + shift with shift = -n, one table entry per offset and
+    // slope. The other pairs (a tie, or q too large) are computed as the reference does.
+    bin_shift_.resize(static_cast<std::size_t>(offsets) * static_cast<std::size_t>(n_slopes));
+    for (int k = 0; k < n_slopes; ++k) {
+      const double s = params_.min_slope + k * params_.slope_step;
+      for (int d = 0; d < offsets; ++d) {
+        const double q = d / s;
+        int shift = kRowDependentShift;
+        if (q < 0x1p30) {
+          const double frac = q - std::floor(q);
+          if (std::abs(frac - 0.5) > 1e-6) shift = -static_cast<int>(std::lround(q));
+        }
+        bin_shift_[static_cast<std::size_t>(k) * static_cast<std::size_t>(offsets) + static_cast<std::size_t>(d)] =
+            shift;
       }
+    }
     slope_table_offsets_ = offsets;
   }
-  // Accumulator stored bin-major (all slopes of one horizon bin side by side: the votes
-  // of one peak then land on neighbouring addresses), with a zero border of one bin
-  // and one slope on each side.
-  const int kstride = n_slopes + 2;
-  padded_acc_.assign(static_cast<std::size_t>(n_bins + 2) * static_cast<std::size_t>(kstride), 0.0f);
-  float* acc = padded_acc_.data() + kstride + 1;  // acc[b * kstride + k]
-  vote_bins_.resize(static_cast<std::size_t>(n_slopes));
-  int* bins = vote_bins_.data();
-  bool any = false;
+  // The voting peaks, in order: row + rows, offset, weight.
+  vote_base_.clear();
+  vote_offset_.clear();
+  vote_weight_.clear();
   for (std::size_t i = 0; i < peaks_.size(); ++i) {
     const Peak& p = peaks_[i];
-    if (!use[i] || p.offset < 1 || p.offset >= offsets) continue;
-    any = true;
-    const double* __restrict q = &slope_table_[static_cast<std::size_t>(p.offset) * static_cast<std::size_t>(n_slopes)];
-    const double row = p.row;
-    // std::lround(row - q[k]) without the library call: truncate, then round half away
-    // from zero (v - trunc(v) is exact for these magnitudes, |v| < 2^31 by the table's range).
-    int k = 0;
-    {
-      typedef double F64x4 __attribute__((vector_size(32)));
-      typedef std::int32_t I32x4 __attribute__((vector_size(16)));
-      const F64x4 vrow = F64x4{} + row;
-      const F64x4 half = F64x4{} + 0.5;
-      const I32x4 vrows = I32x4{} + rows;
-      for (; k + 4 <= n_slopes; k += 4) {
-        F64x4 qk;
-        std::memcpy(&qk, q + k, sizeof(qk));
-        const F64x4 v = vrow - qk;
-        const I32x4 t = __builtin_convertvector(v, I32x4);
-        const F64x4 frac = v - __builtin_convertvector(t, F64x4);
-        // Comparison masks are -1 / 0: subtracting the first adds 1, adding the second subtracts 1.
-        const I32x4 up = __builtin_convertvector(frac >= half, I32x4);
-        const I32x4 down = __builtin_convertvector(frac <= -half, I32x4);
-        const I32x4 b = t - up + down + vrows;
-        std::memcpy(bins + k, &b, sizeof(b));
+    if (!use[i] || p.offset < 1 || p.offset >= offsets) continue;  // offset 0 is infinity: no slope information
+    vote_base_.push_back(p.row + rows);
+    vote_offset_.push_back(p.offset);
+    vote_weight_.push_back(p.weight);
+  }
+  if (vote_base_.empty()) return std::nullopt;
+  const int n_votes = static_cast<int>(vote_base_.size());
+
+  // Three accumulator rows (slopes k - 1, k, k + 1) and a zero row, each with a zero
+  // bin on either side: the 3x3 sums need no bounds tests (adding +0.0f where the
+  // reference skips a term leaves a sum unchanged: every sum is >= +0).
+  const int stride = n_bins + 2;
+  slope_rows_.assign(static_cast<std::size_t>(4) * static_cast<std::size_t>(stride), 0.0f);
+  window_sums_.resize(static_cast<std::size_t>(n_bins));
+  float* zero_row = slope_rows_.data() + 1;
+  float* ring[3] = {zero_row + stride, zero_row + 2 * stride, zero_row + 3 * stride};
+  const int* base = vote_base_.data();
+  const int* offset = vote_offset_.data();
+  const float* weight = vote_weight_.data();
+  auto vote = [&](int k, float* acc) {
+    std::fill(acc - 1, acc + n_bins + 1, 0.0f);
+    const int* shift = &bin_shift_[static_cast<std::size_t>(k) * static_cast<std::size_t>(offsets)];
+    for (int i = 0; i < n_votes; ++i) {
+      const int sh = shift[offset[i]];
+      const int bin = base[i] + sh;
+      if (static_cast<unsigned>(bin) < static_cast<unsigned>(n_bins)) {
+        acc[bin] += weight[i];
+      } else if (sh == kRowDependentShift) {
+        const double s = params_.min_slope + k * params_.slope_step;
+        const long b = std::lround((base[i] - rows) - offset[i] / s) + rows;
+        if (b >= 0 && b < n_bins) acc[b] += weight[i];
       }
     }
-    for (; k < n_slopes; ++k) {
-      const double v = row - q[k];
-      int t = static_cast<int>(v);
-      const double frac = v - static_cast<double>(t);
-      t += (frac >= 0.5 ? 1 : 0) - (frac <= -0.5 ? 1 : 0);
-      bins[k] = t + rows;
-    }
-    for (k = 0; k < n_slopes; ++k) {
-      const int bin = bins[k];
-      if (bin < 0 || bin >= n_bins) continue;
-      acc[static_cast<std::ptrdiff_t>(bin) * kstride + k] += p.weight;
-    }
-  }
-  if (!any) return std::nullopt;
+  };
+
   // 3x3 sums in the reference's order (slopes k-1, k, k+1; bins b-1, b, b+1); the
-  // zero border adds +0.0f where the reference skips a term, which leaves a sum
-  // unchanged. The reference keeps the first maximum in slope-major order: here
-  // (bin-major) a tie goes to the smaller slope, then the smaller bin.
-  window_sums_.resize(static_cast<std::size_t>(n_slopes));
+  // reference keeps the first maximum in slope-major order, as this scan does.
   float best = 0.0f;
   int best_k = -1, best_b = -1;
-  for (int b = 0; b < n_bins; ++b) {
-    const float* __restrict lo = acc + static_cast<std::ptrdiff_t>(b - 1) * kstride;
-    const float* __restrict mid = acc + static_cast<std::ptrdiff_t>(b) * kstride;
-    const float* __restrict hi = acc + static_cast<std::ptrdiff_t>(b + 1) * kstride;
-    float* __restrict out = window_sums_.data();
-    for (int k = 0; k < n_slopes; ++k) {
-      float sum = 0.0f;
-      sum += lo[k - 1];
-      sum += mid[k - 1];
-      sum += hi[k - 1];
-      sum += lo[k];
-      sum += mid[k];
-      sum += hi[k];
-      sum += lo[k + 1];
-      sum += mid[k + 1];
-      sum += hi[k + 1];
-      out[k] = sum;
+  float* prev = zero_row;
+  float* cur = ring[0];
+  vote(0, cur);
+  for (int k = 0; k < n_slopes; ++k) {
+    float* next = zero_row;
+    if (k + 1 < n_slopes) {
+      next = ring[(k + 1) % 3];
+      vote(k + 1, next);
     }
-    // Largest sum of this bin first (exact: a maximum does not round); most bins
+    const float* __restrict lo = prev;
+    const float* __restrict mid = cur;
+    const float* __restrict hi = next;
+    float* __restrict out = window_sums_.data();
+    for (int b = 0; b < n_bins; ++b) {
+      float sum = 0.0f;
+      sum += lo[b - 1];
+      sum += lo[b];
+      sum += lo[b + 1];
+      sum += mid[b - 1];
+      sum += mid[b];
+      sum += mid[b + 1];
+      sum += hi[b - 1];
+      sum += hi[b];
+      sum += hi[b + 1];
+      out[b] = sum;
+    }
+    // Largest sum of this slope first (exact: a maximum does not round); most slopes
     // cannot change the best and are not scanned.
     float row_max = 0.0f;
     {
       typedef float F32x4 __attribute__((vector_size(16)));
       F32x4 m{};
-      int k = 0;
-      for (; k + 4 <= n_slopes; k += 4) {
+      int b = 0;
+      for (; b + 4 <= n_bins; b += 4) {
         F32x4 v;
-        std::memcpy(&v, out + k, sizeof(v));
+        std::memcpy(&v, out + b, sizeof(v));
         m = v > m ? v : m;
       }
       float lanes[4];
       std::memcpy(lanes, &m, sizeof(lanes));
       row_max = std::max(std::max(lanes[0], lanes[1]), std::max(lanes[2], lanes[3]));
-      for (; k < n_slopes; ++k) row_max = std::max(row_max, out[k]);
+      for (; b < n_bins; ++b) row_max = std::max(row_max, out[b]);
     }
-    if (row_max < best || row_max <= 0.0f) continue;
-    for (int k = 0; k < n_slopes; ++k) {
-      const float v = out[k];
-      if (v > best || (v == best && best_k >= 0 && k < best_k)) {
-        best = v;
-        best_k = k;
-        best_b = b;
-      }
+    if (row_max > best) {
+      best = row_max;
+      best_k = k;
+      best_b = static_cast<int>(std::find(out, out + n_bins, row_max) - out);
     }
+    prev = cur;
+    cur = next;
   }
   if (best_k < 0) return std::nullopt;
   GroundLine line;

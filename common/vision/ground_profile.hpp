@@ -134,11 +134,13 @@ class GroundEstimator {
   std::vector<double> roll_hist_;
   // Scratch of the fast paths, sized on the first frame and reused.
   std::vector<Peak> row_peaks_;
-  std::vector<double> slope_table_;     // offset / slope, offsets x slopes (for the offsets it was built for)
-  int slope_table_offsets_ = 0;
-  std::vector<float> padded_acc_;       // Hough accumulator with a zero border
-  std::vector<float> window_sums_;      // 3x3 sums of one horizon bin
-  std::vector<int> vote_bins_;          // horizon bin of one peak per slope
+  std::vector<int> bin_shift_;          // Hough bin - row - rows per slope and offset (slope-major)
+  int slope_table_offsets_ = 0;         // offsets bin_shift_ was built for
+  std::vector<int> vote_base_;          // voting peaks: row + rows, offset, weight
+  std::vector<int> vote_offset_;
+  std::vector<float> vote_weight_;
+  std::vector<float> slope_rows_;       // Hough accumulator rows of three slopes and a zero row
+  std::vector<float> window_sums_;      // 3x3 sums of one slope
   std::vector<float> background_sums_;
   std::vector<double> roll_sorted_;
   std::vector<std::uint8_t> roll_right_;  // padded right row

@@ -198,6 +198,99 @@ TEST(FastGround, WideRollSearchMatchesTheReference) {
   }
 }
 
+// The Hough transform over other slope grids: steps where offset / slope falls on
+// half-integers (0.4, 0.5, ...: the rounding then depends on the row's sign and is
+// done as the reference does), finer and coarser grids; main and second line bitwise.
+TEST(FastGround, HoughSlopeGridsMatchTheReference) {
+  const std::vector<Pair> all = pairs();
+  struct Grid {
+    double min_slope, max_slope, step;
+  };
+  const Grid grids[] = {{0.03, 1.5, 0.004}, {0.1, 1.5, 0.1}, {0.05, 2.0, 0.05}, {0.001, 0.8, 0.0013}, {0.2, 0.5, 0.3}, {0.5, 4.0, 0.5}};
+  auto sameLine = [](const std::optional<GroundLine>& a, const std::optional<GroundLine>& b) {
+    if (a.has_value() != b.has_value()) return false;
+    if (!a) return true;
+    return std::memcmp(&a->slope, &b->slope, sizeof(double)) == 0 &&
+           std::memcmp(&a->horizon_row, &b->horizon_row, sizeof(double)) == 0 && a->support_rows == b->support_rows;
+  };
+  for (const Pair& p : all) {
+    FeatureExtractor fx;
+    cv::Mat lf, rf, s, m;
+    fx.compute(p.left, lf);
+    fx.compute(p.right, rf);
+    Correlator().compute(lf, rf, s, m);
+    for (const Grid& g : grids) {
+      SCOPED_TRACE(p.name + ", slopes " + std::to_string(g.min_slope) + ".." + std::to_string(g.max_slope) + " step " +
+                   std::to_string(g.step));
+      GroundParams gp;
+      gp.min_slope = g.min_slope;
+      gp.max_slope = g.max_slope;
+      gp.slope_step = g.step;
+      GroundEstimator ref(gp), fast(gp);
+      GroundProfile a, b;
+      ref.computeReference(s, p.rig, nullptr, 0, a);
+      fast.compute(s, p.rig, nullptr, 0, b);
+      ASSERT_TRUE(sameLine(ref.mainLine(), fast.mainLine())) << "main line";
+      ASSERT_TRUE(sameLine(ref.secondLine(), fast.secondLine())) << "second line";
+      ASSERT_EQ(a.source, b.source);
+      ASSERT_EQ(a.horizon_row, b.horizon_row);
+      ASSERT_EQ(0, std::memcmp(a.offset_per_row.data(), b.offset_per_row.data(), a.offset_per_row.size() * sizeof(float)));
+      ASSERT_EQ(a.vertices, b.vertices);
+      // Twice on the same estimator: scratch from the previous frame changes nothing.
+      fast.compute(s, p.rig, nullptr, 0, b);
+      ASSERT_TRUE(sameLine(ref.mainLine(), fast.mainLine())) << "main line, second call";
+      ASSERT_EQ(0, std::memcmp(a.offset_per_row.data(), b.offset_per_row.data(), a.offset_per_row.size() * sizeof(float)));
+    }
+  }
+}
+
+// Random correlation images on slope grids with exact binary slopes (offset / 2,
+// offset / 4: half-integers for the rounding), every line accepted: the first
+// Hough maximum of the fast path is the reference's on each of them.
+TEST(FastGround, HoughOnRandomScoresMatchesTheReference) {
+  cv::RNG rng(20261123);
+  const StereoRig rig;
+  int lines = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const int rows = 20 + static_cast<int>(rng.uniform(0, 60));
+    const int offsets = 8 + static_cast<int>(rng.uniform(0, 40));
+    cv::Mat score(rows, offsets, CV_32F);
+    rng.fill(score, cv::RNG::UNIFORM, 0.0f, 1.0f);
+    // Some rows on a line through the half-integer offsets, so that votes pile up.
+    const double slope = trial % 2 ? 2.0 : 4.0;
+    for (int y = rows / 3; y < rows; y += 2) {
+      const int d = static_cast<int>((y - rows / 3) * slope / 2.0) | 1;
+      if (d < offsets) score.at<float>(y, d) = 1.0f + static_cast<float>(rng.uniform(0.0, 1.0));
+    }
+    GroundParams gp;
+    gp.min_slope = trial % 3 ? 0.5 : 0.25;
+    gp.max_slope = 4.0;
+    gp.slope_step = gp.min_slope;
+    gp.min_support_rows = 1;
+    gp.min_support_fraction = 0.0;
+    gp.min_segment_rows = 1;
+    GroundEstimator ref(gp), fast(gp);
+    GroundProfile a, b;
+    ref.computeReference(score, rig, nullptr, 0, a);
+    fast.compute(score, rig, nullptr, 0, b);
+    SCOPED_TRACE("trial " + std::to_string(trial));
+    ASSERT_EQ(ref.mainLine().has_value(), fast.mainLine().has_value());
+    if (ref.mainLine()) {
+      ++lines;
+      ASSERT_EQ(ref.mainLine()->slope, fast.mainLine()->slope);
+      ASSERT_EQ(ref.mainLine()->horizon_row, fast.mainLine()->horizon_row);
+    }
+    ASSERT_EQ(ref.secondLine().has_value(), fast.secondLine().has_value());
+    if (ref.secondLine()) {
+      ASSERT_EQ(ref.secondLine()->slope, fast.secondLine()->slope);
+      ASSERT_EQ(ref.secondLine()->horizon_row, fast.secondLine()->horizon_row);
+    }
+    ASSERT_EQ(a.horizon_row, b.horizon_row);
+    ASSERT_EQ(0, std::memcmp(a.offset_per_row.data(), b.offset_per_row.data(), a.offset_per_row.size() * sizeof(float)));
+  }
+  EXPECT_GT(lines, 100);
+}
+
 }  // namespace
 }  // namespace sg
 
