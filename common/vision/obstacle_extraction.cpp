@@ -304,14 +304,92 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       continue;
     }
     int x0 = cx.lo, x1 = cx.hi, y0 = cy.lo, y1 = cy.hi;
+    float cluster_matches = 0.0f;  // matched pixels of the cluster at d*
+    if (params_.cell_px > 0) {
+      // The histograms locate the cluster; its extent is the connected set of cells that
+      // match at d* (closed outlines of plainly coloured objects hold together, while chance
+      // matches of texture at other depths stay below the cell's matched share).
+      const int cs = params_.cell_px;
+      const int gw = (cols + cs - 1) / cs;
+      const int gh = (limit + 1 + cs - 1) / cs;
+      cell_.assign(static_cast<std::size_t>(gw) * static_cast<std::size_t>(gh), Cell{});
+      auto cellAt = [&](int i, int j) -> Cell& {
+        Cell& c = cell_[static_cast<std::size_t>(j) * static_cast<std::size_t>(gw) + static_cast<std::size_t>(i)];
+        if (c.state != kCellUnknown) return c;
+        int matched = 0, present = 0;
+        c.x0 = cols;
+        c.y0 = rows;
+        for (int y = j * cs; y < std::min((j + 1) * cs, limit + 1); ++y) {
+          const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+          for (int x = i * cs; x < std::min((i + 1) * cs, cols); ++x) {
+            if (!l[x] || !inStripe(y, x)) continue;
+            ++present;
+            if (maskAt(y, x)) {
+              ++matched;
+              c.x0 = std::min(c.x0, x);
+              c.x1 = std::max(c.x1, x);
+              c.y0 = std::min(c.y0, y);
+              c.y1 = std::max(c.y1, y);
+            }
+          }
+        }
+        c.matched = matched;
+        c.state = matched >= params_.min_cell_matches && matched >= params_.min_match_fraction * present
+                      ? kCellActive
+                      : kCellInactive;
+        return c;
+      };
+      // Seed: the strongest active cell inside the histogram box.
+      int seed = -1, seed_matched = 0;
+      for (int j = y0 / cs; j <= std::min(y1 / cs, gh - 1); ++j)
+        for (int i = x0 / cs; i <= x1 / cs; ++i) {
+          const Cell& c = cellAt(i, j);
+          if (c.state == kCellActive && c.matched > seed_matched) {
+            seed_matched = c.matched;
+            seed = j * gw + i;
+          }
+        }
+      if (seed < 0) {
+        if (sweepBox(cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1), best - tol, best + tol, kLabelUnassigned) == 0)
+          banned_[static_cast<std::size_t>(best)] = 1;
+        continue;
+      }
+      // Flood over active cells within cell_reach cells of each other.
+      const int reach = params_.cell_reach;
+      x0 = cols;
+      y0 = rows;
+      x1 = -1;
+      y1 = -1;
+      flood_.clear();
+      flood_.push_back(seed);
+      cell_[static_cast<std::size_t>(seed)].in_cluster = true;
+      while (!flood_.empty()) {
+        const int k = flood_.back();
+        flood_.pop_back();
+        const Cell& c = cell_[static_cast<std::size_t>(k)];
+        x0 = std::min(x0, c.x0);
+        x1 = std::max(x1, c.x1);
+        y0 = std::min(y0, c.y0);
+        y1 = std::max(y1, c.y1);
+        cluster_matches += static_cast<float>(c.matched);
+        const int ci = k % gw, cj = k / gw;
+        for (int j = std::max(0, cj - reach); j <= std::min(gh - 1, cj + reach); ++j)
+          for (int i = std::max(0, ci - reach); i <= std::min(gw - 1, ci + reach); ++i) {
+            Cell& n = cellAt(i, j);
+            if (n.state != kCellActive || n.in_cluster) continue;
+            n.in_cluster = true;
+            flood_.push_back(j * gw + i);
+          }
+      }
+    } else {
+      for (int x = x0; x <= x1; ++x) cluster_matches += col_hist_[static_cast<std::size_t>(x)];
+    }
     int dmin = best, dmax = best;
     col_offset_.assign(static_cast<std::size_t>(cols), best);
 
     if (params_.grow_walls) {
       // Mean column evidence of the cluster: an extension needs a fraction of it.
-      float mean_col = 0.0f;
-      for (int x = x0; x <= x1; ++x) mean_col += col_hist_[static_cast<std::size_t>(x)];
-      mean_col /= static_cast<float>(x1 - x0 + 1);
+      const float mean_col = cluster_matches / static_cast<float>(x1 - x0 + 1);
       const float thr_col = std::max(2.0f, static_cast<float>(params_.extent_fraction) * mean_col);
       auto tryGrow = [&](int d) {
         if (d < 0 || d >= offsets || d <= background + params_.background_margin_px) return false;
@@ -319,12 +397,17 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         const int yb = rowLimit(d);
         if (yb < ya) return false;
         // Column evidence at d, computed only for the columns a run walks over.
+        // A column whose features mostly do not match at d shows texture at other depths.
         auto columnAt = [&](int x) {
-          int count = 0;
+          int count = 0, present = 0;
           const int yc = std::min(yb, rowLimitAt(d, x));
-          for (int y = ya; y <= yc; ++y)
-            count += matchAt(remaining.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, d - tol, d + tol, grey,
-                             half, cols);
+          for (int y = ya; y <= yc; ++y) {
+            const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+            if (!l[x]) continue;
+            ++present;
+            count += matchAt(l, right.ptr<std::uint8_t>(y), x, d - tol, d + tol, grey, half, cols);
+          }
+          if (count < params_.min_match_fraction * present) count = 0;
           col_hist_[static_cast<std::size_t>(x)] = static_cast<float>(count);
           return static_cast<float>(count);
         };
@@ -388,11 +471,11 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     if (ground_known) {
       // The lowest contact over the box's columns (a receding wall meets the ground nearest
       // at its near end; on a transversal slope the contact moves along the box).
+      // A contact below the image (a near obstacle) is the image's last row: the obstacle must
+      // reach down to it.
       int contact = -1;
-      for (int x = x0; x <= x1; ++x) {
-        const int c = contactRowAt(col_offset_[static_cast<std::size_t>(x)], x);
-        if (c < rows) contact = std::max(contact, c);
-      }
+      for (int x = x0; x <= x1; ++x)
+        contact = std::max(contact, std::min(contactRowAt(col_offset_[static_cast<std::size_t>(x)], x), rows - 1));
       if (contact >= 0) {
         const double allowed =
             std::max(static_cast<double>(params_.contact_tolerance_px), params_.contact_tolerance_fraction * (y1 - y0 + 1));
@@ -401,7 +484,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           // fraction of the peak: the cluster still stands on the ground when most rows down
           // to its contact keep some match at d* inside its columns.
           int rows_with_match = 0, rows_seen = 0;
-          for (int y = y1 + 1; y < std::min(contact, rows); ++y) {
+          for (int y = y1 + 1; y < contact; ++y) {
             ++rows_seen;
             const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
             for (int x = x0; x <= x1; ++x)
@@ -421,8 +504,10 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     const bool unmatched = count < params_.min_match_fraction * present;
     if (floating || unmatched || count < params_.min_cluster_features || box.height < params_.min_height_px ||
         box.width < params_.min_width_px) {
-      // Not an obstacle: drop the evidence of d* in the box so that the next candidate comes up.
-      if (sweepBox(box, best - tol, best + tol, kLabelUnassigned) == 0) banned_[static_cast<std::size_t>(best)] = 1;
+      // Not an obstacle: drop the evidence of d* in the box and in the region its histograms
+      // pointed at, so that the next candidate comes up.
+      const cv::Rect located = cv::Rect(cx.lo, cy.lo, cx.hi - cx.lo + 1, cy.hi - cy.lo + 1) | box;
+      if (sweepBox(located, best - tol, best + tol, kLabelUnassigned) == 0) banned_[static_cast<std::size_t>(best)] = 1;
       continue;
     }
 

@@ -55,6 +55,9 @@ struct ObstacleParams {
   double background_margin_px = 1.5;  // offsets within this of the background line are background residue
   bool grow_walls = true;           // grow clusters over neighbouring offsets (walls receding in depth)
   int min_growth_matches = 20;      // matched pixels an extension needs
+  int cell_px = 4;                  // side of the cells whose connected set is the cluster (0: histograms only)
+  int cell_reach = 1;               // cells connect within this many cells of each other
+  int min_cell_matches = 4;         // matched pixels of an active cell (a few rows of an outline)
   double merge_overlap = 0.5;       // fraction of the smaller box inside an earlier obstacle at a close offset: merge
 
   template <class V>
@@ -82,6 +85,9 @@ struct ObstacleParams {
     v.field("background_margin_px", background_margin_px, 0.0, 100.0, "pixels", "background residue margin");
     v.field("grow_walls", grow_walls, 0, 1, "", "grow clusters over neighbouring offsets");
     v.field("min_growth_matches", min_growth_matches, 1, 10000000, "pixels", "matches an extension needs");
+    v.field("cell_px", cell_px, 0, 256, "pixels", "cell side of the cluster's connected extent (0: histograms)");
+    v.field("cell_reach", cell_reach, 1, 16, "cells", "cells connect within this distance");
+    v.field("min_cell_matches", min_cell_matches, 1, 65536, "pixels", "matched pixels of an active cell");
     v.field("merge_overlap", merge_overlap, 0.0, 1.0, "", "overlap merging a cluster into an earlier one");
   }
   void validate() const { validateParams(*this, "obstacles"); }
@@ -134,7 +140,16 @@ class ObstacleExtractor {
   std::vector<float> smooth_;
   std::vector<int> col_offset_;      // per column: the offset the cluster matched it at
   std::vector<std::uint8_t> mask_;   // matches at the current offset, rows x cols, evaluated on first use
-  std::vector<std::uint8_t> banned_;  // offsets that gave nothing this frame
+  std::vector<std::uint8_t> banned_;
+  static constexpr std::uint8_t kCellUnknown = 0, kCellInactive = 1, kCellActive = 2;
+  struct Cell {
+    std::uint8_t state = kCellUnknown;
+    bool in_cluster = false;
+    int matched = 0;
+    int x0 = 0, y0 = 0, x1 = -1, y1 = -1;  // bounding box of the matched pixels
+  };
+  std::vector<Cell> cell_;
+  std::vector<int> flood_;  // offsets that gave nothing this frame
 };
 
 }  // namespace sg

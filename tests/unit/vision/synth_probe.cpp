@@ -33,6 +33,9 @@ int main(int argc, char** argv) {
     if (const char* v = std::getenv("FRAC")) sgp.obstacles.min_match_fraction = std::atof(v);
     if (const char* v = std::getenv("EXCESS")) sgp.obstacles.min_row_excess = std::atoi(v);
     if (const char* v = std::getenv("SUPPORT")) sgp.obstacles.min_support_fraction = std::atof(v);
+    if (const char* v = std::getenv("CELL")) sgp.obstacles.cell_px = std::atoi(v);
+    if (const char* v = std::getenv("REACH")) sgp.obstacles.cell_reach = std::atoi(v);
+    if (const char* v = std::getenv("CELLMIN")) sgp.obstacles.min_cell_matches = std::atoi(v);
     if (const char* v = std::getenv("GAP")) sgp.obstacles.gap_px = std::atoi(v);
     if (const char* v = std::getenv("EXTENT")) sgp.obstacles.extent_fraction = std::atof(v);
     Segmenter seg(sgp);
@@ -82,8 +85,9 @@ int main(int argc, char** argv) {
       if (best >= 0 && best_iou > 0.2) used[static_cast<std::size_t>(best)] = 1;
       bool hit = false;  // as the acceptance test: any cluster with IoU >= 0.5 and the offset (or its range) within 1
       for (const ObstacleCluster& c : r.obstacles)
-        hit = hit || (test::iou(c.box, box) >= 0.5 &&
-                      (std::abs(c.offset_px - d_true) <= 1.0 || (d_true >= c.min_offset_px - 1.0 && d_true <= c.max_offset_px + 1.0)));
+        for (const double d : {d_true, test::visibleDisparityMedian(t.disparity, t.object_id, k)})
+          hit = hit || (test::iou(c.box, box) >= 0.5 &&
+                        (std::abs(c.offset_px - d) <= 1.0 || (d >= c.min_offset_px - 1.0 && d <= c.max_offset_px + 1.0)));
       if (want) { ++wanted; found += hit; }
       if (draw_dir && t.object_visible_px[k] > 0) {
         cv::rectangle(canvas, box, want ? cv::Scalar(0, 255, 0) : cv::Scalar(0, 255, 255), 1);

@@ -69,12 +69,13 @@ TEST(SyntheticGround, WeakTextureFallsBackToThePrior) {
 }
 
 // Obstacles over many random scenes: every object taller than 40 px and nearer
-// than 30 m must be found (offset within +-1 of its disparity at its location,
+// than 30 m must be found (offset within +-1 of its disparity at its location or
+// of the median disparity of its visible surface,
 // box IoU >= 0.5 with its visible box); at most one spurious obstacle per frame
 // on average. A found obstacle is spurious when less than half of its labelled
 // feature pixels lie on true objects.
 // Disabled: the segmentation does not meet these figures yet (measured recall
-// 0.41, 1.1 spurious obstacles per frame; see docs/method.md, "Known
+// 0.53, 0.62 spurious obstacles per frame; see docs/method.md, "Known
 // limits"). Run it with --gtest_also_run_disabled_tests.
 TEST(SyntheticObstacles, DISABLED_RecallAndSpuriousOverManySeeds) {
   constexpr int kSeeds = 50;
@@ -94,11 +95,16 @@ TEST(SyntheticObstacles, DISABLED_RecallAndSpuriousOverManySeeds) {
                          cv::Point(static_cast<int>(o.box[2]) + 1, static_cast<int>(o.box[3]) + 1));
       if (box.height <= 40 || o.location_m[2] >= 30.0) continue;
       ++frame_wanted;
-      const double truth_offset = fb / o.location_m[2];
+      // The truth offset: of the label's centre, or the median over the visible surface.
+      const double centre_offset = fb / o.location_m[2];
+      const double surface_offset = test::visibleDisparityMedian(t.disparity, t.object_id, k);
       for (const ObstacleCluster& c : r.obstacles) {
         // A cluster grown over many offsets (a wall receding in depth) carries its offset range.
-        const bool offset_ok = std::abs(c.offset_px - truth_offset) <= 1.0 ||
-                               (truth_offset >= c.min_offset_px - 1.0 && truth_offset <= c.max_offset_px + 1.0);
+        auto near = [&](double truth_offset) {
+          return std::abs(c.offset_px - truth_offset) <= 1.0 ||
+                 (truth_offset >= c.min_offset_px - 1.0 && truth_offset <= c.max_offset_px + 1.0);
+        };
+        const bool offset_ok = near(centre_offset) || near(surface_offset);
         if (test::iou(c.box, box) >= 0.5 && offset_ok) {
           ++frame_found;
           break;
