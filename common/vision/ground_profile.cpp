@@ -13,7 +13,7 @@ namespace sg {
 
 GroundEstimator::GroundEstimator(const GroundParams& params) : params_(params) { params_.validate(); }
 
-void GroundEstimator::findPeaks(const cv::Mat& score) {
+void GroundEstimator::findPeaksReference(const cv::Mat& score) {
   peaks_.clear();
   row_peak_begin_.assign(static_cast<std::size_t>(score.rows) + 1, 0);
   const int offsets = score.cols;
@@ -30,6 +30,78 @@ void GroundEstimator::findPeaks(const cv::Mat& score) {
       const bool right_ok = d == offsets - 1 || s[d] > s[d + 1];
       if (left_ok && right_ok && s[d] >= floor) row_peaks.push_back(Peak{y, d, s[d]});
     }
+    // Strongest first; ties keep the smaller offset (stable sort on a deterministic order).
+    // The first `keep` of a stable sort, by repeated selection: the strongest remaining
+    // peak, the earliest of equals (no temporary buffer, linear in the row's peaks).
+    const std::size_t keep = std::min(row_peaks.size(), static_cast<std::size_t>(params_.max_peaks_per_row));
+    for (std::size_t t = 0; t < keep; ++t) {
+      std::size_t best = t;
+      for (std::size_t i = t + 1; i < row_peaks.size(); ++i)
+        if (row_peaks[i].weight > row_peaks[best].weight) best = i;
+      // Move it to position t keeping the order of the others (stability of the rest).
+      const Peak p = row_peaks[best];
+      for (std::size_t i = best; i > t; --i) row_peaks[i] = row_peaks[i - 1];
+      row_peaks[t] = p;
+    }
+    peaks_.insert(peaks_.end(), row_peaks.begin(), row_peaks.begin() + static_cast<std::ptrdiff_t>(keep));
+  }
+  row_peak_begin_[static_cast<std::size_t>(score.rows)] = static_cast<int>(peaks_.size());
+}
+
+void GroundEstimator::findPeaks(const cv::Mat& score) {
+  peaks_.clear();
+  row_peak_begin_.assign(static_cast<std::size_t>(score.rows) + 1, 0);
+  const int offsets = score.cols;
+  std::vector<Peak>& row_peaks = row_peaks_;
+  typedef float F32x8 __attribute__((vector_size(32)));
+  typedef std::int32_t I32x8 __attribute__((vector_size(32)));
+  constexpr int kWidth = 8;
+  for (int y = 0; y < score.rows; ++y) {
+    row_peak_begin_[static_cast<std::size_t>(y)] = static_cast<int>(peaks_.size());
+    const float* s = score.ptr<float>(y);
+    // Row maximum, eight lanes at a time (exact: a maximum does not round).
+    float row_max = s[0];
+    int d = 0;
+    {
+      F32x8 m = F32x8{} + s[0];
+      for (; d + kWidth <= offsets; d += kWidth) {
+        F32x8 v;
+        std::memcpy(&v, s + d, sizeof(v));
+        m = v > m ? v : m;
+      }
+      float lanes[kWidth];
+      std::memcpy(lanes, &m, sizeof(lanes));
+      for (const float v : lanes) row_max = std::max(row_max, v);
+      for (; d < offsets; ++d) row_max = std::max(row_max, s[d]);
+    }
+    const float floor = std::max(params_.min_peak_score, params_.peak_ratio * row_max);
+    if (row_max <= 0.0f || row_max < floor) continue;
+    row_peaks.clear();
+    // Local maxima at or above the floor, in offset order: a vector test of eight
+    // interior offsets at a time, the offsets of a block with a candidate tested one by one.
+    auto test = [&](int k) {
+      const bool left_ok = k == 0 || s[k] >= s[k - 1];
+      const bool right_ok = k == offsets - 1 || s[k] > s[k + 1];
+      if (left_ok && right_ok && s[k] >= floor) row_peaks.push_back(Peak{y, k, s[k]});
+    };
+    test(0);
+    d = 1;
+    const F32x8 vfloor = F32x8{} + floor;
+    for (; d + kWidth < offsets; d += kWidth) {
+      F32x8 prev, cur, next;
+      std::memcpy(&prev, s + d - 1, sizeof(prev));
+      std::memcpy(&cur, s + d, sizeof(cur));
+      std::memcpy(&next, s + d + 1, sizeof(next));
+      const I32x8 hit = (cur >= vfloor) & (cur >= prev) & (cur > next);
+      std::int32_t lanes[kWidth];
+      std::memcpy(lanes, &hit, sizeof(lanes));
+      std::int32_t any = 0;
+      for (const std::int32_t v : lanes) any |= v;
+      if (any == 0) continue;
+      for (int j = 0; j < kWidth; ++j)
+        if (lanes[j] != 0) row_peaks.push_back(Peak{y, d + j, s[d + j]});
+    }
+    for (; d < offsets; ++d) test(d);
     // Strongest first; ties keep the smaller offset (stable sort on a deterministic order).
     // The first `keep` of a stable sort, by repeated selection: the strongest remaining
     // peak, the earliest of equals (no temporary buffer, linear in the row's peaks).
@@ -131,7 +203,12 @@ std::optional<GroundLine> GroundEstimator::houghFast(const std::vector<std::uint
     }
     slope_table_offsets_ = offsets;
   }
-  // The voting peaks, in order: row + rows, offset, weight.
+  // The voting peaks, in order: row + rows, offset, weight (capacity for every peak
+  // a frame of this size can have: no allocation after the first frame).
+  const std::size_t most = static_cast<std::size_t>(rows) * static_cast<std::size_t>(params_.max_peaks_per_row);
+  vote_base_.reserve(most);
+  vote_offset_.reserve(most);
+  vote_weight_.reserve(most);
   vote_base_.clear();
   vote_offset_.clear();
   vote_weight_.clear();
@@ -185,40 +262,10 @@ std::optional<GroundLine> GroundEstimator::houghFast(const std::vector<std::uint
       next = ring[(k + 1) % 3];
       vote(k + 1, next);
     }
-    const float* __restrict lo = prev;
-    const float* __restrict mid = cur;
-    const float* __restrict hi = next;
-    float* __restrict out = window_sums_.data();
-    for (int b = 0; b < n_bins; ++b) {
-      float sum = 0.0f;
-      sum += lo[b - 1];
-      sum += lo[b];
-      sum += lo[b + 1];
-      sum += mid[b - 1];
-      sum += mid[b];
-      sum += mid[b + 1];
-      sum += hi[b - 1];
-      sum += hi[b];
-      sum += hi[b + 1];
-      out[b] = sum;
-    }
-    // Largest sum of this slope first (exact: a maximum does not round); most slopes
-    // cannot change the best and are not scanned.
-    float row_max = 0.0f;
-    {
-      typedef float F32x4 __attribute__((vector_size(16)));
-      F32x4 m{};
-      int b = 0;
-      for (; b + 4 <= n_bins; b += 4) {
-        F32x4 v;
-        std::memcpy(&v, out + b, sizeof(v));
-        m = v > m ? v : m;
-      }
-      float lanes[4];
-      std::memcpy(lanes, &m, sizeof(lanes));
-      row_max = std::max(std::max(lanes[0], lanes[1]), std::max(lanes[2], lanes[3]));
-      for (; b < n_bins; ++b) row_max = std::max(row_max, out[b]);
-    }
+    float* out = window_sums_.data();
+    // Largest sum of this slope with the sums (exact: a maximum does not round); most
+    // slopes cannot change the best and are not scanned.
+    const float row_max = simd::houghWindowSums(prev, cur, next, n_bins, out);
     if (row_max > best) {
       best = row_max;
       best_k = k;
@@ -439,7 +486,10 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
   const int offsets = score.cols;
   main_line_.reset();
   second_line_.reset();
-  findPeaks(score);
+  if (reference)
+    findPeaksReference(score);
+  else
+    findPeaks(score);
 
   use_.assign(peaks_.size(), 1);
   std::optional<GroundLine> l1 = houghOf(use_, rows, offsets);

@@ -116,7 +116,8 @@ class GroundEstimator {
   };
   void computeImpl(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous, int previous_age_frames,
                    GroundProfile& out, bool reference);
-  void findPeaks(const cv::Mat& score);
+  void findPeaksReference(const cv::Mat& score);
+  void findPeaks(const cv::Mat& score);  // vector test of the local maxima; same peaks as findPeaksReference
   std::optional<GroundLine> hough(const std::vector<std::uint8_t>& use, int rows, int offsets) const;
   std::optional<GroundLine> houghFast(const std::vector<std::uint8_t>& use, int rows, int offsets);
   // Roll: rows, strips and offsets to histogram; false when the roll is not estimated.

@@ -232,8 +232,57 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
   }
 }
 
+[[gnu::always_inline]] inline float windowSumsImpl(const float* lo, const float* mid, const float* hi, int n,
+                                                   float* out) {
+  typedef float F32x8 __attribute__((vector_size(32)));
+  constexpr int kFloats = 8;
+  auto at = [](const float* p) {
+    F32x8 v;
+    std::memcpy(&v, p, sizeof(v));
+    return v;
+  };
+  F32x8 m{};
+  int b = 0;
+  for (; b + kFloats <= n; b += kFloats) {
+    F32x8 sum{};
+    sum += at(lo + b - 1);
+    sum += at(lo + b);
+    sum += at(lo + b + 1);
+    sum += at(mid + b - 1);
+    sum += at(mid + b);
+    sum += at(mid + b + 1);
+    sum += at(hi + b - 1);
+    sum += at(hi + b);
+    sum += at(hi + b + 1);
+    std::memcpy(out + b, &sum, sizeof(sum));
+    m = sum > m ? sum : m;
+  }
+  float lanes[kFloats];
+  std::memcpy(lanes, &m, sizeof(lanes));
+  float best = 0.0f;
+  for (const float v : lanes) best = std::max(best, v);
+  for (; b < n; ++b) {
+    float sum = 0.0f;
+    sum += lo[b - 1];
+    sum += lo[b];
+    sum += lo[b + 1];
+    sum += mid[b - 1];
+    sum += mid[b];
+    sum += mid[b + 1];
+    sum += hi[b - 1];
+    sum += hi[b];
+    sum += hi[b + 1];
+    out[b] = sum;
+    best = std::max(best, sum);
+  }
+  return best;
+}
+
 #if defined(__x86_64__) || defined(__i386__)
 #define SG_SIMD_X86 1
+[[gnu::target("avx2")]] float windowSumsAvx2(const float* lo, const float* mid, const float* hi, int n, float* out) {
+  return windowSumsImpl(lo, mid, hi, n, out);
+}
 [[gnu::target("avx2")]] void accumulateAvx2(const std::uint8_t* left, const std::uint8_t* skip,
                                             const std::uint8_t* right, int x0, int x1, int offsets, int tol,
                                             int* counts) {
@@ -270,6 +319,10 @@ void accumulateBaseline(const std::uint8_t* left, const std::uint8_t* skip, cons
 void windowBaseline(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d_first, int count,
                     int tol, int* counts) {
   windowImpl(left, right, x0, x1, d_first, count, tol, counts);
+}
+
+float windowSumsBaseline(const float* lo, const float* mid, const float* hi, int n, float* out) {
+  return windowSumsImpl(lo, mid, hi, n, out);
 }
 
 bool useAvx2() {
@@ -316,6 +369,13 @@ void markMatches(const std::uint8_t* left, const std::uint8_t* right, int x0, in
   if (useAvx2()) return markAvx2(left, right, x0, x1, d0, d1, grey_tolerance, marks);
 #endif
   markBaseline(left, right, x0, x1, d0, d1, grey_tolerance, marks);
+}
+
+float houghWindowSums(const float* lo, const float* mid, const float* hi, int n, float* out) {
+#ifdef SG_SIMD_X86
+  if (useAvx2()) return windowSumsAvx2(lo, mid, hi, n, out);
+#endif
+  return windowSumsBaseline(lo, mid, hi, n, out);
 }
 
 const char* kernelName() { return useAvx2() ? "avx2" : "baseline"; }

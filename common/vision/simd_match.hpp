@@ -1,7 +1,8 @@
 #pragma once
-// Vector kernels shared by the correlation, the ground roll estimate and the
-// feature images. Integer arithmetic only: every kernel gives exactly the
-// counts of its scalar reference. Written with the compiler's portable vector
+// Vector kernels shared by the correlation, the ground estimate and the
+// feature images. Integer arithmetic, except the Hough window sums, whose float
+// additions are the reference's, in its order, lane by lane: every kernel gives
+// exactly the results of its scalar reference. Written with the compiler's portable vector
 // types; on x86-64 an AVX2 build of each kernel is picked at run time when the
 // processor has it, otherwise the baseline (SSE2) build runs.
 #include <cstdint>
@@ -42,6 +43,12 @@ void featureRow(const std::uint8_t* pm, const std::uint8_t* p0, const std::uint8
 // and |left[x] - right[x - d]| <= grey_tolerance; other marks are left alone.
 void markMatches(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d0, int d1,
                  int grey_tolerance, std::uint8_t* marks);
+
+// Hough 3x3 window sums (GroundEstimator): out[b] = 0.0f + lo[b - 1] + lo[b] +
+// lo[b + 1] + mid[b - 1] + mid[b] + mid[b + 1] + hi[b - 1] + hi[b] + hi[b + 1],
+// added left to right in float, for b in [0, n). The rows must be readable at
+// -1 and n. Returns the largest out[b] and 0 if none is above 0.
+float houghWindowSums(const float* lo, const float* mid, const float* hi, int n, float* out);
 
 // Name of the build in use ("avx2" or "baseline").
 const char* kernelName();
