@@ -53,19 +53,21 @@ void GroundEstimator::findPeaks(const cv::Mat& score) {
   row_peak_begin_.assign(static_cast<std::size_t>(score.rows) + 1, 0);
   const int offsets = score.cols;
   std::vector<Peak>& row_peaks = row_peaks_;
-  typedef float F32x8 __attribute__((vector_size(32)));
-  typedef std::int32_t I32x8 __attribute__((vector_size(32)));
-  constexpr int kWidth = 8;
+  // Four lanes: the baseline (SSE2) build of this file turns wider comparisons and
+  // selections into scalar code through the stack.
+  typedef float F32x4 __attribute__((vector_size(16)));
+  typedef std::int32_t I32x4 __attribute__((vector_size(16)));
+  constexpr int kWidth = 4;
   for (int y = 0; y < score.rows; ++y) {
     row_peak_begin_[static_cast<std::size_t>(y)] = static_cast<int>(peaks_.size());
     const float* s = score.ptr<float>(y);
-    // Row maximum, eight lanes at a time (exact: a maximum does not round).
+    // Row maximum, four lanes at a time (exact: a maximum does not round).
     float row_max = s[0];
     int d = 0;
     {
-      F32x8 m = F32x8{} + s[0];
+      F32x4 m = F32x4{} + s[0];
       for (; d + kWidth <= offsets; d += kWidth) {
-        F32x8 v;
+        F32x4 v;
         std::memcpy(&v, s + d, sizeof(v));
         m = v > m ? v : m;
       }
@@ -77,7 +79,7 @@ void GroundEstimator::findPeaks(const cv::Mat& score) {
     const float floor = std::max(params_.min_peak_score, params_.peak_ratio * row_max);
     if (row_max <= 0.0f || row_max < floor) continue;
     row_peaks.clear();
-    // Local maxima at or above the floor, in offset order: a vector test of eight
+    // Local maxima at or above the floor, in offset order: a vector test of four
     // interior offsets at a time, the offsets of a block with a candidate tested one by one.
     auto test = [&](int k) {
       const bool left_ok = k == 0 || s[k] >= s[k - 1];
@@ -86,13 +88,13 @@ void GroundEstimator::findPeaks(const cv::Mat& score) {
     };
     test(0);
     d = 1;
-    const F32x8 vfloor = F32x8{} + floor;
+    const F32x4 vfloor = F32x4{} + floor;
     for (; d + kWidth < offsets; d += kWidth) {
-      F32x8 prev, cur, next;
+      F32x4 prev, cur, next;
       std::memcpy(&prev, s + d - 1, sizeof(prev));
       std::memcpy(&cur, s + d, sizeof(cur));
       std::memcpy(&next, s + d + 1, sizeof(next));
-      const I32x8 hit = (cur >= vfloor) & (cur >= prev) & (cur > next);
+      const I32x4 hit = (cur >= vfloor) & (cur >= prev) & (cur > next);
       std::int32_t lanes[kWidth];
       std::memcpy(lanes, &hit, sizeof(lanes));
       std::int32_t any = 0;

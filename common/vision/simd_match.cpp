@@ -64,6 +64,33 @@ constexpr SplatTable kSplats = makeSplatTable();
   return __builtin_convertvector((b - lo) <= width, U8x32);
 }
 
+// Gathers into idx the x in [x, x1) with left[x] != 0 (and skip[x] == 0 when skip
+// is not null), branch-free, until x1 or until idx holds kMaxGather - 7 or more;
+// returns how many and advances x. Eight pixels whose left bytes are all zero
+// (one 64-bit test) are stepped over at once.
+constexpr int kMaxGather = 255;  // the most a byte lane can count
+[[gnu::always_inline]] inline int gatherFeatures(const std::uint8_t* left, const std::uint8_t* skip, int& x, int x1,
+                                                 int* idx) {
+  int n = 0;
+  while (x + 8 <= x1 && n <= kMaxGather - 8) {
+    std::uint64_t word;
+    std::memcpy(&word, left + x, sizeof(word));
+    if (word != 0) {
+      for (int j = 0; j < 8; ++j) {
+        idx[n] = x + j;
+        n += skip == nullptr ? left[x + j] != 0 : (left[x + j] != 0) & (skip[x + j] == 0);
+      }
+    }
+    x += 8;
+  }
+  if (x + 8 > x1)
+    for (; x < x1 && n < kMaxGather; ++x) {
+      idx[n] = x;
+      n += skip == nullptr ? left[x] != 0 : (left[x] != 0) & (skip[x] == 0);
+    }
+  return n;
+}
+
 // Lane j of vector i holds the count of offset d = dv - 1 - (kLanes * i + j).
 template <int NV>
 [[gnu::always_inline]] inline void accumulateImpl(const std::uint8_t* left, const std::uint8_t* skip,
@@ -77,23 +104,12 @@ template <int NV>
   auto flush = [&] {
     for (int i = 0; i < nv; ++i) flushLanes(acc[i], dv - 1 - kLanes * i, offsets, counts);
   };
-  // Feature pixels are gathered (branch-free) into chunks of at most 255, the
-  // most a byte lane can count, then matched and flushed.
-  int idx[255];
+  // Feature pixels are gathered into chunks of at most 255, the most a byte lane
+  // can count, then matched and flushed.
+  int idx[kMaxGather];
   int x = x0;
   while (x < x1) {
-    int n = 0;
-    if (skip == nullptr) {
-      for (; x < x1 && n < 255; ++x) {
-        idx[n] = x;
-        n += left[x] != 0;
-      }
-    } else {
-      for (; x < x1 && n < 255; ++x) {
-        idx[n] = x;
-        n += (left[x] != 0) & (skip[x] == 0);
-      }
-    }
+    const int n = skip == nullptr ? gatherFeatures(left, nullptr, x, x1, idx) : gatherFeatures(left, skip, x, x1, idx);
     for (int k = 0; k < n; ++k) {
       const int xi = idx[k];
       const int a = left[xi];
@@ -125,14 +141,10 @@ template <int NV>
                                               int d_first, int count, int tol, int* counts) {
   U8x32 acc{};
   // Lane j is offset d_first + kLanes - 1 - j, i.e. counts index kLanes - 1 - j.
-  int idx[255];
+  int idx[kMaxGather];
   int x = std::max(x0, d_first);
   while (x < x1) {
-    int n = 0;
-    for (; x < x1 && n < 255; ++x) {
-      idx[n] = x;
-      n += left[x] != 0;
-    }
+    const int n = gatherFeatures(left, nullptr, x, x1, idx);
     for (int k = 0; k < n; ++k) {
       const int xi = idx[k];
       const int a = left[xi];
@@ -232,19 +244,21 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
   }
 }
 
+// kFloats lanes: 8 in the AVX2 build, 4 in the baseline one (wider selections
+// there become scalar code through the stack).
+template <int kFloats>
 [[gnu::always_inline]] inline float windowSumsImpl(const float* lo, const float* mid, const float* hi, int n,
                                                    float* out) {
-  typedef float F32x8 __attribute__((vector_size(32)));
-  constexpr int kFloats = 8;
+  typedef float F32xN __attribute__((vector_size(kFloats * sizeof(float))));
   auto at = [](const float* p) {
-    F32x8 v;
+    F32xN v;
     std::memcpy(&v, p, sizeof(v));
     return v;
   };
-  F32x8 m{};
+  F32xN m{};
   int b = 0;
   for (; b + kFloats <= n; b += kFloats) {
-    F32x8 sum{};
+    F32xN sum{};
     sum += at(lo + b - 1);
     sum += at(lo + b);
     sum += at(lo + b + 1);
@@ -281,7 +295,7 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
 #if defined(__x86_64__) || defined(__i386__)
 #define SG_SIMD_X86 1
 [[gnu::target("avx2")]] float windowSumsAvx2(const float* lo, const float* mid, const float* hi, int n, float* out) {
-  return windowSumsImpl(lo, mid, hi, n, out);
+  return windowSumsImpl<8>(lo, mid, hi, n, out);
 }
 [[gnu::target("avx2")]] void accumulateAvx2(const std::uint8_t* left, const std::uint8_t* skip,
                                             const std::uint8_t* right, int x0, int x1, int offsets, int tol,
@@ -322,7 +336,7 @@ void windowBaseline(const std::uint8_t* left, const std::uint8_t* right, int x0,
 }
 
 float windowSumsBaseline(const float* lo, const float* mid, const float* hi, int n, float* out) {
-  return windowSumsImpl(lo, mid, hi, n, out);
+  return windowSumsImpl<4>(lo, mid, hi, n, out);
 }
 
 bool useAvx2() {
