@@ -13,6 +13,23 @@ namespace sg {
 
 GroundEstimator::GroundEstimator(const GroundParams& params) : params_(params) { params_.validate(); }
 
+void GroundEstimator::keepStrongest(std::vector<Peak>& row_peaks) {
+  // Strongest first; ties keep the smaller offset (stable sort on a deterministic order).
+  // The first `keep` of a stable sort, by repeated selection: the strongest remaining
+  // peak, the earliest of equals (no temporary buffer, linear in the row's peaks).
+  const std::size_t keep = std::min(row_peaks.size(), static_cast<std::size_t>(params_.max_peaks_per_row));
+  for (std::size_t t = 0; t < keep; ++t) {
+    std::size_t best = t;
+    for (std::size_t i = t + 1; i < row_peaks.size(); ++i)
+      if (row_peaks[i].weight > row_peaks[best].weight) best = i;
+    // Move it to position t keeping the order of the others (stability of the rest).
+    const Peak p = row_peaks[best];
+    for (std::size_t i = best; i > t; --i) row_peaks[i] = row_peaks[i - 1];
+    row_peaks[t] = p;
+  }
+  peaks_.insert(peaks_.end(), row_peaks.begin(), row_peaks.begin() + static_cast<std::ptrdiff_t>(keep));
+}
+
 void GroundEstimator::findPeaksReference(const cv::Mat& score) {
   peaks_.clear();
   row_peak_begin_.assign(static_cast<std::size_t>(score.rows) + 1, 0);
@@ -30,20 +47,7 @@ void GroundEstimator::findPeaksReference(const cv::Mat& score) {
       const bool right_ok = d == offsets - 1 || s[d] > s[d + 1];
       if (left_ok && right_ok && s[d] >= floor) row_peaks.push_back(Peak{y, d, s[d]});
     }
-    // Strongest first; ties keep the smaller offset (stable sort on a deterministic order).
-    // The first `keep` of a stable sort, by repeated selection: the strongest remaining
-    // peak, the earliest of equals (no temporary buffer, linear in the row's peaks).
-    const std::size_t keep = std::min(row_peaks.size(), static_cast<std::size_t>(params_.max_peaks_per_row));
-    for (std::size_t t = 0; t < keep; ++t) {
-      std::size_t best = t;
-      for (std::size_t i = t + 1; i < row_peaks.size(); ++i)
-        if (row_peaks[i].weight > row_peaks[best].weight) best = i;
-      // Move it to position t keeping the order of the others (stability of the rest).
-      const Peak p = row_peaks[best];
-      for (std::size_t i = best; i > t; --i) row_peaks[i] = row_peaks[i - 1];
-      row_peaks[t] = p;
-    }
-    peaks_.insert(peaks_.end(), row_peaks.begin(), row_peaks.begin() + static_cast<std::ptrdiff_t>(keep));
+    keepStrongest(row_peaks);
   }
   row_peak_begin_[static_cast<std::size_t>(score.rows)] = static_cast<int>(peaks_.size());
 }
@@ -104,20 +108,7 @@ void GroundEstimator::findPeaks(const cv::Mat& score) {
         if (lanes[j] != 0) row_peaks.push_back(Peak{y, d + j, s[d + j]});
     }
     for (; d < offsets; ++d) test(d);
-    // Strongest first; ties keep the smaller offset (stable sort on a deterministic order).
-    // The first `keep` of a stable sort, by repeated selection: the strongest remaining
-    // peak, the earliest of equals (no temporary buffer, linear in the row's peaks).
-    const std::size_t keep = std::min(row_peaks.size(), static_cast<std::size_t>(params_.max_peaks_per_row));
-    for (std::size_t t = 0; t < keep; ++t) {
-      std::size_t best = t;
-      for (std::size_t i = t + 1; i < row_peaks.size(); ++i)
-        if (row_peaks[i].weight > row_peaks[best].weight) best = i;
-      // Move it to position t keeping the order of the others (stability of the rest).
-      const Peak p = row_peaks[best];
-      for (std::size_t i = best; i > t; --i) row_peaks[i] = row_peaks[i - 1];
-      row_peaks[t] = p;
-    }
-    peaks_.insert(peaks_.end(), row_peaks.begin(), row_peaks.begin() + static_cast<std::ptrdiff_t>(keep));
+    keepStrongest(row_peaks);
   }
   row_peak_begin_[static_cast<std::size_t>(score.rows)] = static_cast<int>(peaks_.size());
 }

@@ -117,6 +117,7 @@ class GroundEstimator {
   void computeImpl(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous, int previous_age_frames,
                    GroundProfile& out, bool reference);
   void findPeaksReference(const cv::Mat& score);
+  void keepStrongest(std::vector<Peak>& row_peaks);  // appends a row's strongest peaks to peaks_
   void findPeaks(const cv::Mat& score);  // vector test of the local maxima; same peaks as findPeaksReference
   std::optional<GroundLine> hough(const std::vector<std::uint8_t>& use, int rows, int offsets) const;
   std::optional<GroundLine> houghFast(const std::vector<std::uint8_t>& use, int rows, int offsets);
