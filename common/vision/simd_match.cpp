@@ -250,24 +250,26 @@ template <int kFloats>
 [[gnu::always_inline]] inline float windowSumsImpl(const float* lo, const float* mid, const float* hi, int n,
                                                    float* out) {
   typedef float F32xN __attribute__((vector_size(kFloats * sizeof(float))));
-  auto at = [](const float* p) {
+  // Adds through a reference: a lambda does not inherit the caller's target, and a
+  // 32-byte vector returned by value from it would change the calling convention.
+  auto add = [](F32xN& sum, const float* p) {
     F32xN v;
     std::memcpy(&v, p, sizeof(v));
-    return v;
+    sum += v;
   };
   F32xN m{};
   int b = 0;
   for (; b + kFloats <= n; b += kFloats) {
     F32xN sum{};
-    sum += at(lo + b - 1);
-    sum += at(lo + b);
-    sum += at(lo + b + 1);
-    sum += at(mid + b - 1);
-    sum += at(mid + b);
-    sum += at(mid + b + 1);
-    sum += at(hi + b - 1);
-    sum += at(hi + b);
-    sum += at(hi + b + 1);
+    add(sum, lo + b - 1);
+    add(sum, lo + b);
+    add(sum, lo + b + 1);
+    add(sum, mid + b - 1);
+    add(sum, mid + b);
+    add(sum, mid + b + 1);
+    add(sum, hi + b - 1);
+    add(sum, hi + b);
+    add(sum, hi + b + 1);
     std::memcpy(out + b, &sum, sizeof(sum));
     m = sum > m ? sum : m;
   }
