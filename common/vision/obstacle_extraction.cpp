@@ -479,12 +479,18 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       if (contact >= 0) {
         const double allowed =
             std::max(static_cast<double>(params_.contact_tolerance_px), params_.contact_tolerance_fraction * (y1 - y0 + 1));
-        if (y1 < contact - allowed) {
+        // Rows whose ground offset is within ground_clearance_px of d* are left out of the
+        // histograms (ground residue): the gap is measured to the last row the cluster could
+        // show in, and only the rows down to there can support it.
+        int lowest_shown = -1;
+        for (int x = x0; x <= x1; ++x) lowest_shown = std::max(lowest_shown, col_limit_[static_cast<std::size_t>(x)]);
+        lowest_shown = std::min(lowest_shown, contact);
+        if (y1 < lowest_shown - allowed) {
           // Weakly textured lower parts (legs, a plain lower body) fall below the histogram's
           // fraction of the peak: the cluster still stands on the ground when most rows down
-          // to its contact keep some match at d* inside its columns.
+          // to there keep some match at d* inside its columns.
           int rows_with_match = 0, rows_seen = 0;
-          for (int y = y1 + 1; y < contact; ++y) {
+          for (int y = y1 + 1; y <= lowest_shown; ++y) {
             ++rows_seen;
             const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
             for (int x = x0; x <= x1; ++x)
