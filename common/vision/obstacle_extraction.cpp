@@ -303,6 +303,11 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       banned_[static_cast<std::size_t>(best)] = 1;
       continue;
     }
+    // Not an obstacle: drop the evidence of d* in `region` (the box and the place its histograms
+    // pointed at) so that the next candidate comes up; an offset that leaves nothing is done.
+    auto rejectCandidate = [&](const cv::Rect& region) {
+      if (sweepBox(region, best - tol, best + tol, kLabelUnassigned) == 0) banned_[static_cast<std::size_t>(best)] = 1;
+    };
     int x0 = cx.lo, x1 = cx.hi, y0 = cy.lo, y1 = cy.hi;
     float cluster_matches = 0.0f;  // matched pixels of the cluster at d*
     if (params_.cell_px > 0) {
@@ -350,8 +355,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           }
         }
       if (seed < 0) {
-        if (sweepBox(cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1), best - tol, best + tol, kLabelUnassigned) == 0)
-          banned_[static_cast<std::size_t>(best)] = 1;
+        rejectCandidate(cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1));
         continue;
       }
       // Flood over active cells within cell_reach cells of each other.
@@ -473,18 +477,18 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       // at its near end; on a transversal slope the contact moves along the box).
       // A contact below the image (a near obstacle) is the image's last row: the obstacle must
       // reach down to it.
-      int contact = -1;
-      for (int x = x0; x <= x1; ++x)
+      // Rows whose ground offset is within ground_clearance_px of d* are left out of the
+      // histograms (ground residue): the gap is measured to the last row the cluster could
+      // show in, and only the rows down to there can support it.
+      int contact = -1, lowest_shown = -1;
+      for (int x = x0; x <= x1; ++x) {
         contact = std::max(contact, std::min(contactRowAt(col_offset_[static_cast<std::size_t>(x)], x), rows - 1));
+        lowest_shown = std::max(lowest_shown, col_limit_[static_cast<std::size_t>(x)]);
+      }
+      lowest_shown = std::min(lowest_shown, contact);
       if (contact >= 0) {
         const double allowed =
             std::max(static_cast<double>(params_.contact_tolerance_px), params_.contact_tolerance_fraction * (y1 - y0 + 1));
-        // Rows whose ground offset is within ground_clearance_px of d* are left out of the
-        // histograms (ground residue): the gap is measured to the last row the cluster could
-        // show in, and only the rows down to there can support it.
-        int lowest_shown = -1;
-        for (int x = x0; x <= x1; ++x) lowest_shown = std::max(lowest_shown, col_limit_[static_cast<std::size_t>(x)]);
-        lowest_shown = std::min(lowest_shown, contact);
         if (y1 < lowest_shown - allowed) {
           // Weakly textured lower parts (legs, a plain lower body) fall below the histogram's
           // fraction of the peak: the cluster still stands on the ground when most rows down
@@ -510,10 +514,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     const bool unmatched = count < params_.min_match_fraction * present;
     if (floating || unmatched || count < params_.min_cluster_features || box.height < params_.min_height_px ||
         box.width < params_.min_width_px) {
-      // Not an obstacle: drop the evidence of d* in the box and in the region its histograms
-      // pointed at, so that the next candidate comes up.
-      const cv::Rect located = cv::Rect(cx.lo, cy.lo, cx.hi - cx.lo + 1, cy.hi - cy.lo + 1) | box;
-      if (sweepBox(located, best - tol, best + tol, kLabelUnassigned) == 0) banned_[static_cast<std::size_t>(best)] = 1;
+      rejectCandidate(cv::Rect(cx.lo, cy.lo, cx.hi - cx.lo + 1, cy.hi - cy.lo + 1) | box);
       continue;
     }
 

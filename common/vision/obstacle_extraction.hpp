@@ -10,9 +10,12 @@
 // max_obstacles are found.
 //
 // Beyond the paper:
+//  - the histograms only locate the cluster: its extent is the connected set of
+//    cell_px cells matching at d*, grown from the strongest one in that place;
 //  - obstacles stand on the ground: only rows above the ground contact row of
 //    d* (the row where the ground offset equals d*) count; a cluster floating
-//    far above its contact row is rejected; the box bottom is the contact row;
+//    far above the last row it could show in is rejected; the box bottom is the
+//    contact row;
 //  - long walls receding in depth grow over neighbouring offsets whose
 //    matched features continue the cluster sideways, so they come out as one
 //    obstacle spanning [min_offset_px, max_offset_px] instead of slices;
@@ -49,8 +52,8 @@ struct ObstacleParams {
                                     // unmatched texture (occlusions, aliasing) stay well below it
   int contact_tolerance_px = 12;    // allowed gap between the cluster bottom and its ground contact row ...
   double contact_tolerance_fraction = 0.35;  // ... or this fraction of its height, whichever is larger
-  double min_support_fraction = 0.5;  // share of the rows between a cluster and its contact that must keep a
-                                      // match at its offset for it to stand on the ground (legs)
+  double min_support_fraction = 0.5;  // share of the rows below a cluster, down to the last row it could show
+                                      // in, that must keep a match at its offset for it to stand (legs)
   double ground_clearance_px = 2.5;  // rows whose ground offset is within this of d are left out (ground residue)
   double background_margin_px = 1.5;  // offsets within this of the background line are background residue
   bool grow_walls = true;           // grow clusters over neighbouring offsets (walls receding in depth)
@@ -79,7 +82,7 @@ struct ObstacleParams {
     v.field("contact_tolerance_px", contact_tolerance_px, 0, 100000, "pixels", "bottom to ground contact gap");
     v.field("contact_tolerance_fraction", contact_tolerance_fraction, 0.0, 10.0, "", "same, fraction of the height");
     v.field("min_support_fraction", min_support_fraction, 0.0, 1.0, "",
-            "rows down to the ground contact that must keep a match");
+            "rows below a cluster, down to the last it could show in, that must keep a match");
     v.field("ground_clearance_px", ground_clearance_px, 0.0, 100.0, "pixels",
             "histograms of offset d skip rows whose ground offset is above d minus this");
     v.field("background_margin_px", background_margin_px, 0.0, 100.0, "pixels", "background residue margin");
@@ -140,7 +143,7 @@ class ObstacleExtractor {
   std::vector<float> smooth_;
   std::vector<int> col_offset_;      // per column: the offset the cluster matched it at
   std::vector<std::uint8_t> mask_;   // matches at the current offset, rows x cols, evaluated on first use
-  std::vector<std::uint8_t> banned_;
+  std::vector<std::uint8_t> banned_;  // offsets that gave nothing this frame
   static constexpr std::uint8_t kCellUnknown = 0, kCellInactive = 1, kCellActive = 2;
   struct Cell {
     std::uint8_t state = kCellUnknown;
@@ -149,7 +152,7 @@ class ObstacleExtractor {
     int x0 = 0, y0 = 0, x1 = -1, y1 = -1;  // bounding box of the matched pixels
   };
   std::vector<Cell> cell_;
-  std::vector<int> flood_;  // offsets that gave nothing this frame
+  std::vector<int> flood_;   // cells still to visit while growing a cluster
 };
 
 }  // namespace sg
