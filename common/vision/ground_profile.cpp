@@ -11,6 +11,15 @@
 
 namespace sg {
 
+namespace {
+// A row's correlation peak: a local maximum (the first of a plateau) at or above the floor.
+inline bool isRowPeak(const float* s, int d, int offsets, float floor) {
+  const bool left_ok = d == 0 || s[d] >= s[d - 1];
+  const bool right_ok = d == offsets - 1 || s[d] > s[d + 1];
+  return left_ok && right_ok && s[d] >= floor;
+}
+}  // namespace
+
 GroundEstimator::GroundEstimator(const GroundParams& params) : params_(params) { params_.validate(); }
 
 void GroundEstimator::keepStrongest(std::vector<Peak>& row_peaks) {
@@ -43,9 +52,7 @@ void GroundEstimator::findPeaksReference(const cv::Mat& score) {
     if (row_max <= 0.0f || row_max < floor) continue;
     row_peaks.clear();
     for (int d = 0; d < offsets; ++d) {
-      const bool left_ok = d == 0 || s[d] >= s[d - 1];
-      const bool right_ok = d == offsets - 1 || s[d] > s[d + 1];
-      if (left_ok && right_ok && s[d] >= floor) row_peaks.push_back(Peak{y, d, s[d]});
+      if (isRowPeak(s, d, offsets, floor)) row_peaks.push_back(Peak{y, d, s[d]});
     }
     keepStrongest(row_peaks);
   }
@@ -86,9 +93,7 @@ void GroundEstimator::findPeaks(const cv::Mat& score) {
     // Local maxima at or above the floor, in offset order: a vector test of four
     // interior offsets at a time, the offsets of a block with a candidate tested one by one.
     auto test = [&](int k) {
-      const bool left_ok = k == 0 || s[k] >= s[k - 1];
-      const bool right_ok = k == offsets - 1 || s[k] > s[k + 1];
-      if (left_ok && right_ok && s[k] >= floor) row_peaks.push_back(Peak{y, k, s[k]});
+      if (isRowPeak(s, k, offsets, floor)) row_peaks.push_back(Peak{y, k, s[k]});
     };
     test(0);
     d = 1;

@@ -109,6 +109,7 @@ template <int NV>
   int idx[kMaxGather];
   int x = x0;
   while (x < x1) {
+    // A literal nullptr lets the inlined gather drop the skip test.
     const int n = skip == nullptr ? gatherFeatures(left, nullptr, x, x1, idx) : gatherFeatures(left, skip, x, x1, idx);
     for (int k = 0; k < n; ++k) {
       const int xi = idx[k];
