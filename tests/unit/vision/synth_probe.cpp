@@ -84,11 +84,9 @@ int main(int argc, char** argv) {
         if (v > best_iou) { best_iou = v; best = static_cast<int>(j); }
       }
       if (best >= 0 && best_iou > 0.2) used[static_cast<std::size_t>(best)] = 1;
-      bool hit = false;  // as the acceptance test: any cluster with IoU >= 0.5 and the offset (or its range) within 1
-      for (const ObstacleCluster& c : r.obstacles)
-        for (const double d : {d_true, test::visibleDisparityMedian(t.disparity, t.object_id, k)})
-          hit = hit || (test::iou(c.box, box) >= 0.5 &&
-                        (std::abs(c.offset_px - d) <= 1.0 || (d >= c.min_offset_px - 1.0 && d <= c.max_offset_px + 1.0)));
+      bool hit = false;  // as the acceptance test
+      const double d_surface = test::visibleDisparityMedian(t.disparity, t.object_id, k);
+      for (const ObstacleCluster& c : r.obstacles) hit = hit || test::clusterFindsObject(c, box, d_true, d_surface);
       if (want) { ++wanted; found += hit; }
       if (draw_dir && t.object_visible_px[k] > 0) {
         cv::rectangle(canvas, box, want ? cv::Scalar(0, 255, 0) : cv::Scalar(0, 255, 255), 1);

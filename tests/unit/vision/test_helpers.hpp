@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "camera/stereo_rig.hpp"
+#include "vision/segmentation_types.hpp"
 
 namespace sg::test {
 
@@ -94,6 +95,18 @@ inline double visibleDisparityMedian(const cv::Mat& disparity, const cv::Mat& ob
   const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
   std::nth_element(values.begin(), mid, values.end());
   return static_cast<double>(*mid);
+}
+
+// The obstacle acceptance criterion for one object: the cluster's box has IoU >= 0.5
+// with the object's box, and its offset (or the offset range of a grown cluster) is
+// within +-1 of the object's centre offset or of its visible surface's median.
+inline bool clusterFindsObject(const ObstacleCluster& c, const cv::Rect& box, double centre_offset,
+                               double surface_offset) {
+  auto near = [&](double truth_offset) {
+    return std::abs(c.offset_px - truth_offset) <= 1.0 ||
+           (truth_offset >= c.min_offset_px - 1.0 && truth_offset <= c.max_offset_px + 1.0);
+  };
+  return iou(c.box, box) >= 0.5 && (near(centre_offset) || near(surface_offset));
 }
 
 }  // namespace sg::test

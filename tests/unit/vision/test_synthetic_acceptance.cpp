@@ -98,14 +98,9 @@ TEST(SyntheticObstacles, DISABLED_RecallAndSpuriousOverManySeeds) {
       // The truth offset: of the label's centre, or the median over the visible surface.
       const double centre_offset = fb / o.location_m[2];
       const double surface_offset = test::visibleDisparityMedian(t.disparity, t.object_id, k);
+      // A cluster grown over many offsets (a wall receding in depth) carries its offset range.
       for (const ObstacleCluster& c : r.obstacles) {
-        // A cluster grown over many offsets (a wall receding in depth) carries its offset range.
-        auto near = [&](double truth_offset) {
-          return std::abs(c.offset_px - truth_offset) <= 1.0 ||
-                 (truth_offset >= c.min_offset_px - 1.0 && truth_offset <= c.max_offset_px + 1.0);
-        };
-        const bool offset_ok = near(centre_offset) || near(surface_offset);
-        if (test::iou(c.box, box) >= 0.5 && offset_ok) {
+        if (test::clusterFindsObject(c, box, centre_offset, surface_offset)) {
           ++frame_found;
           break;
         }
