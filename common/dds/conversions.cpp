@@ -97,16 +97,22 @@ void readTiming(const dds_sequence_sg_idl_StageTiming& in, std::map<std::string,
 
 sg_idl_Box boxOf(float left, float top, float right, float bottom) { return sg_idl_Box{left, top, right, bottom}; }
 
+std::string boxStr(const sg_idl_Box& box) {
+  return "[" + str(box.left) + ", " + str(box.top) + ", " + str(box.right) + ", " + str(box.bottom) + "]";
+}
+
+// A box inside the image that frames something: left < right and top < bottom
+// (no producer emits a box of zero width or height).
 void requireBoxInside(const sg_idl_Box& box, int width, int height, const std::string& what,
                       const std::string& field) {
   const bool finite =
       std::isfinite(box.left) && std::isfinite(box.top) && std::isfinite(box.right) && std::isfinite(box.bottom);
   if (!finite || box.left < 0.0f || box.top < 0.0f || box.right > static_cast<float>(width) ||
       box.bottom > static_cast<float>(height) || box.left > box.right || box.top > box.bottom) {
-    fail(what, field,
-         "= [" + str(box.left) + ", " + str(box.top) + ", " + str(box.right) + ", " + str(box.bottom) +
-             "] is not a box inside the " + str(width) + "x" + str(height) + " image");
+    fail(what, field, "= " + boxStr(box) + " is not a box inside the " + str(width) + "x" + str(height) + " image");
   }
+  if (box.left == box.right) fail(what, field, "= " + boxStr(box) + " has zero width (left == right)");
+  if (box.top == box.bottom) fail(what, field, "= " + boxStr(box) + " has zero height (top == bottom)");
 }
 
 }  // namespace
@@ -399,6 +405,11 @@ void readSegmentation(const sg_idl_Segmentation& in, SegmentationData& out) {
     c.max_offset_px = o.max_offset_px;
     c.box = cv::Rect(static_cast<int>(o.box.left), static_cast<int>(o.box.top),
                      static_cast<int>(o.box.right - o.box.left), static_cast<int>(o.box.bottom - o.box.top));
+    // An obstacle box is in whole pixels: a fraction of one is no box either.
+    if (c.box.width < 1 || c.box.height < 1) {
+      fail(what, field + ".box",
+           "= " + boxStr(o.box) + " is less than one pixel " + (c.box.width < 1 ? "wide" : "high"));
+    }
     c.feature_count = o.feature_count;
     out.result.obstacles.push_back(c);
   }

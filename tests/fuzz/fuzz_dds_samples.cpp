@@ -54,10 +54,10 @@ void segmentation(const sg::fuzz::CdrSample& s) {
     broken("ground profile does not have one offset per row");
   }
   for (const auto& o : out.result.obstacles) {
-    // A zero-width or zero-height box is accepted (requireBoxInside allows left == right).
-    if (o.box.x < 0 || o.box.y < 0 || o.box.width < 0 || o.box.height < 0 || o.box.x + o.box.width > frame.width ||
+    // An obstacle box covers at least one pixel (a box of zero width or height is refused).
+    if (o.box.x < 0 || o.box.y < 0 || o.box.width < 1 || o.box.height < 1 || o.box.x + o.box.width > frame.width ||
         o.box.y + o.box.height > frame.height) {
-      broken("obstacle box outside the image");
+      broken("obstacle box empty or outside the image");
     }
     if (o.offset_px < 0 || o.offset_px >= out.rig.width) broken("obstacle offset outside 0..width-1");
   }
@@ -69,9 +69,10 @@ void detections(const sg::fuzz::CdrSample& s) {
   sg::dds::readDetections(s.as<sg_idl_HumanDetections>(), out);
   if (!out.info.payload_valid) return;
   for (const auto& d : out.detections) {
-    if (d.box.x < 0.0f || d.box.y < 0.0f || d.box.x + d.box.width > static_cast<float>(out.width) + 1e-3f ||
+    if (d.box.x < 0.0f || d.box.y < 0.0f || !(d.box.width > 0.0f) || !(d.box.height > 0.0f) ||
+        d.box.x + d.box.width > static_cast<float>(out.width) + 1e-3f ||
         d.box.y + d.box.height > static_cast<float>(out.height) + 1e-3f || !(d.score >= 0.0f && d.score <= 1.0f)) {
-      broken("detection box or score outside its range");
+      broken("detection box empty or outside the image, or score outside its range");
     }
   }
 }

@@ -188,13 +188,14 @@ TEST(BadInput, LocalizationDropsASegmentationWithAbsurdBoxOrOffsetAndKeepsServin
   test::StageHarness<sg_idl_Segmentation, sg_idl_HumanDetections> h(kLocalizationDomain, dds::kSegmentationTopic,
                                                                      dds::kHumanDetectionsTopic);
   dds::TopicWriter<sg_idl_StereoFrame> frame_writer(h.participant, dds::kStereoFrameTopic, h.transport.images);
-  test::ChildProcess stage({SG_LOCALIZATION_EXE, "--frames", "4"}, test::loopbackEnv(kLocalizationDomain), log);
+  test::ChildProcess stage({SG_LOCALIZATION_EXE, "--frames", "5"}, test::loopbackEnv(kLocalizationDomain), log);
   ASSERT_TRUE(h.connected(log));
   ASSERT_TRUE(frame_writer.waitForReaders(1, 20s, [] { return false; })) << test::tail(log);
-  // 0 valid; 1 an obstacle box beyond the image; 2 an obstacle offset beyond the width; 3 valid, the last.
+  // 0 valid; 1 an obstacle box beyond the image; 2 an obstacle offset beyond the width; 3 an obstacle box of
+  // zero width; 4 valid, the last.
   dds::SegmentationEncoder encoder;
-  for (std::uint64_t id = 0; id < 4; ++id) {
-    const dds::StereoFrameData frame = smallFrame(id, id == 3);
+  for (std::uint64_t id = 0; id < 5; ++id) {
+    const dds::StereoFrameData frame = smallFrame(id, id == 4);
     sg_idl_StereoFrame frame_msg{};
     dds::fillStereoFrame(frame, frame_msg);
     frame_writer.write(frame_msg);
@@ -216,17 +217,20 @@ TEST(BadInput, LocalizationDropsASegmentationWithAbsurdBoxOrOffsetAndKeepsServin
     sg_idl_Obstacle bad = msg.obstacles._buffer[0];
     if (id == 1) bad.box.right = 1.0e6f;
     if (id == 2) bad.offset_px = bad.max_offset_px = 5000;
-    if (id == 1 || id == 2) msg.obstacles._buffer = &bad;
+    if (id == 3) bad.box.right = bad.box.left;
+    if (id >= 1 && id <= 3) msg.obstacles._buffer = &bad;
     ASSERT_TRUE(h.writeAndWait(msg, id, log));
   }
   ASSERT_TRUE(h.finish(stage, log));
-  EXPECT_EQ(h.published, (std::set<std::uint64_t>{0, 3}));
-  EXPECT_EQ(h.last.frames_received, 4u);
-  EXPECT_EQ(h.last.dropped["malformed"], 2u);
+  EXPECT_EQ(h.published, (std::set<std::uint64_t>{0, 4}));
+  EXPECT_EQ(h.last.frames_received, 5u);
+  EXPECT_EQ(h.last.dropped["malformed"], 3u);
   const std::string text = test::readFile(log);
   EXPECT_NE(text.find("field 'obstacles[0].box' = [20, 8, 1e+06, 38] is not a box inside the 64x48 image"),
             std::string::npos) << text;
   EXPECT_NE(text.find("field 'obstacles[0].offset_px' = 5000"), std::string::npos) << text;
+  EXPECT_NE(text.find("field 'obstacles[0].box' = [20, 8, 20, 38] has zero width (left == right)"),
+            std::string::npos) << text;
 }
 
 }  // namespace

@@ -217,6 +217,47 @@ TEST(SegmentationConversion, MalformedSamplesAreRejected) {
   EXPECT_THROW(readSegmentation(m, out), InputError);
 }
 
+// A box of zero width or height (or, for an obstacle box in whole pixels, less
+// than one pixel a side) is refused, naming the sample, the field and the box.
+TEST(SegmentationConversion, ZeroAreaObstacleBoxIsMalformed) {
+  const SegmentationData in = segmentation(97, 61);
+  SegmentationEncoder encoder;
+  sg_idl_Segmentation msg{};
+  encoder.fill(in, msg);
+  SegmentationData out;
+  std::vector<sg_idl_Obstacle> obstacles(msg.obstacles._buffer, msg.obstacles._buffer + 1);
+  sg_idl_Segmentation m = msg;
+  m.obstacles._buffer = obstacles.data();
+  auto message = [&] {
+    try {
+      readSegmentation(m, out);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+
+  obstacles[0].box.right = obstacles[0].box.left;
+  EXPECT_EQ(message(), "Segmentation frame 5: field 'obstacles[0].box' = [20, 10, 20, 35] has zero width "
+                       "(left == right)");
+  obstacles[0] = msg.obstacles._buffer[0];
+  obstacles[0].box.top = obstacles[0].box.bottom;
+  EXPECT_EQ(message(), "Segmentation frame 5: field 'obstacles[0].box' = [20, 35, 50, 35] has zero height "
+                       "(top == bottom)");
+  obstacles[0] = msg.obstacles._buffer[0];
+  obstacles[0].box.right = obstacles[0].box.left + 0.5f;
+  EXPECT_EQ(message(), "Segmentation frame 5: field 'obstacles[0].box' = [20, 10, 20.5, 35] is less than "
+                       "one pixel wide");
+
+  // One pixel a side is the smallest obstacle (min_width_px = min_height_px = 1).
+  SegmentationData one = in;
+  one.result.obstacles[0].box = cv::Rect(96, 60, 1, 1);
+  encoder.fill(one, msg);
+  readSegmentation(msg, out);
+  ASSERT_EQ(out.result.obstacles.size(), 1u);
+  EXPECT_EQ(out.result.obstacles[0].box, cv::Rect(96, 60, 1, 1));
+}
+
 TEST(LabelRunLength, SinglePixelImageAndEmptyImage) {
   std::vector<std::uint8_t> labels;
   std::vector<std::uint32_t> lengths;
@@ -268,6 +309,45 @@ TEST(DetectionsConversion, RoundTripAndValidation) {
   bad[0] = msg.detections._buffer[0];
   bad[0].box.bottom = 400.0f;  // below the 375-row image
   EXPECT_THROW(readDetections(m, out), InputError);
+}
+
+TEST(DetectionsConversion, ZeroAreaBoxIsMalformed) {
+  DetectionsData in;
+  in.info.frame_id = 8;
+  in.width = 1242;
+  in.height = 375;
+  HumanDetection h;
+  h.box = cv::Rect2f(600.5f, 140.0f, 44.0f, 120.0f);
+  h.score = 0.83f;
+  in.detections.push_back(h);
+  h.box = cv::Rect2f(100.0f, 150.0f, 0.25f, 4.0f);  // narrow, but not empty: a valid box
+  in.detections.push_back(h);
+  DetectionsEncoder encoder;
+  sg_idl_HumanDetections msg{};
+  encoder.fill(in, msg);
+  DetectionsData out;
+  readDetections(msg, out);
+  ASSERT_EQ(out.detections.size(), 2u);
+  EXPECT_EQ(out.detections[1].box, in.detections[1].box);
+
+  std::vector<sg_idl_Detection> bad(msg.detections._buffer, msg.detections._buffer + 2);
+  sg_idl_HumanDetections m = msg;
+  m.detections._buffer = bad.data();
+  auto message = [&] {
+    try {
+      readDetections(m, out);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  bad[1].box.right = bad[1].box.left;
+  EXPECT_EQ(message(), "HumanDetections frame 8: field 'detections[1].box' = [100, 150, 100, 154] has zero "
+                       "width (left == right)");
+  bad[1] = msg.detections._buffer[1];
+  bad[1].box.bottom = bad[1].box.top;
+  EXPECT_EQ(message(), "HumanDetections frame 8: field 'detections[1].box' = [100, 150, 100.25, 150] has "
+                       "zero height (top == bottom)");
 }
 
 TEST(SampleGapCounter, CountsMissedSamplesPerWriter) {
