@@ -13,13 +13,22 @@
 namespace sg::dds {
 
 dds_return_t check(dds_return_t rc, const char* what) {
-  if (rc < 0) throw DdsError(std::string(what) + " failed: " + dds_strretcode(-rc));
+  if (rc < 0) throw DdsError(std::string(what) + " failed: " + dds_strretcode(-rc), rc);
   return rc;
 }
 
 dds_entity_t checkEntity(dds_entity_t entity, const char* what) {
-  if (entity < 0) throw DdsError(std::string(what) + " failed: " + dds_strretcode(-entity));
+  if (entity < 0) throw DdsError(std::string(what) + " failed: " + dds_strretcode(-entity), entity);
   return entity;
+}
+
+dds_entity_t checkEntity(dds_entity_t entity, const char* what, const std::string& topic, const char* access) {
+  if (entity >= 0) return entity;
+  std::string message = std::string(what) + " for topic '" + topic + "' failed: " + dds_strretcode(-entity);
+  if (entity == DDS_RETCODE_NOT_ALLOWED_BY_SECURITY) {
+    message += " (the permissions of this DDS Security identity do not grant " + std::string(access) + " it)";
+  }
+  throw DdsError(message, entity);
 }
 
 void requireDdsConfig() {

@@ -45,7 +45,9 @@ void loadServiceConfig(const std::string& path, P& params) {
 
 // Parses the common options (plus those `add_options` adds), sets up logging
 // and runs `body`. Returns the exit status: 0, 2 for bad usage or bad input
-// (InputError), 1 for other failures. Never lets an exception escape.
+// (InputError) and for an entity DDS Security does not permit (a DdsError
+// with DDS_RETCODE_NOT_ALLOWED_BY_SECURITY: the identity's permissions lack a
+// grant), 1 for other failures. Never lets an exception escape.
 int serviceMain(int argc, char** argv, const std::string& stage,
                 const std::function<void(CLI::App&)>& add_options,
                 const std::function<void(const ServiceOptions&)>& body, ServiceOptions& options);

@@ -5,7 +5,10 @@
 //    identity writes;
 //  - the intruder identity (valid certificate of the same CA, permissions
 //    without human_detections) cannot create the reader, or receives nothing;
-//  - a participant without security neither matches nor receives anything.
+//  - a participant without security neither matches nor receives anything;
+//  - a stage started with an identity whose permissions lack its topics stops
+//    at once with status 2 (a configuration error the launcher does not
+//    restart) and one line naming the stage, the topic and the missing grant.
 // Skipped when openssl or Cyclone's security plugins are not installed.
 #include <unistd.h>
 
@@ -13,6 +16,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -27,6 +31,7 @@ namespace {
 using namespace std::chrono_literals;
 
 constexpr int kDomain = 184;  // one domain per integration test
+constexpr int kStageDomain = 204;
 constexpr int kSamples = 60;  // 2 s at 30 Hz
 
 // The last JSON object line of a probe's log (Cyclone may log warnings before it).
@@ -62,6 +67,14 @@ class Pki {
   std::string dir_;
 };
 
+// Runs make-test-pki.sh into pki.dir(): its exit status (77: DDS Security not
+// available), nothing when it did not end within a minute.
+std::optional<int> makeTestPki(const Pki& pki, const std::string& log) {
+  test::ChildProcess make({"/bin/sh", std::string(SG_SOURCE_DIR) + "/config/security/make-test-pki.sh", pki.dir()},
+                          {}, log);
+  return make.waitFor(60s);
+}
+
 TEST(DdsSecurity, OnlyAuthorizedIdentitiesReadDetections) {
   test::useLoopbackDds();
   const std::string logs = SG_TEST_LOG_DIR;
@@ -69,9 +82,7 @@ TEST(DdsSecurity, OnlyAuthorizedIdentitiesReadDetections) {
   ASSERT_FALSE(pki.dir().empty()) << "cannot create a temporary folder";
   {
     const std::string log = logs + "/security_pki.log";
-    test::ChildProcess make({"/bin/sh", std::string(SG_SOURCE_DIR) + "/config/security/make-test-pki.sh", pki.dir()},
-                            {}, log);
-    const auto status = make.waitFor(60s);
+    const auto status = makeTestPki(pki, log);
     ASSERT_TRUE(status.has_value()) << "make-test-pki.sh did not end";
     if (*status == 77) GTEST_SKIP() << "DDS Security not available: " << test::tail(log, 3);
     ASSERT_EQ(*status, 0) << test::tail(log);
@@ -132,6 +143,36 @@ TEST(DdsSecurity, OnlyAuthorizedIdentitiesReadDetections) {
   EXPECT_LT(p.value("matched_ms", 0.0), 0.0) << "an unauthenticated participant matched the secure writer: " << p.dump();
 
   RecordProperty("matched_ms", static_cast<int>(w.value("matched_ms", 0.0)));
+}
+
+// features with the intruder identity: it may read stage_metrics, but not
+// write it nor touch stereo_frame or feature_frame. Access control refuses its
+// first writer; the stage stops with status 2 instead of 1 (a crash, which the
+// launcher would restart again and again).
+TEST(DdsSecurity, StageWhoseIdentityLacksAGrantStopsWithStatus2NamingTheTopic) {
+  test::useLoopbackDds();
+  const std::string logs = SG_TEST_LOG_DIR;
+  Pki pki;
+  ASSERT_FALSE(pki.dir().empty()) << "cannot create a temporary folder";
+  {
+    const std::string log = logs + "/security_stage_pki.log";
+    const auto status = makeTestPki(pki, log);
+    ASSERT_TRUE(status.has_value()) << "make-test-pki.sh did not end";
+    if (*status == 77) GTEST_SKIP() << "DDS Security not available: " << test::tail(log, 3);
+    ASSERT_EQ(*status, 0) << test::tail(log);
+  }
+  const std::string log = logs + "/security_stage_intruder.log";
+  test::ChildProcess stage(
+      {SG_FEATURES_EXE, "--config", std::string(SG_SOURCE_DIR) + "/config/features.yaml", "--frames", "1"},
+      {{"CYCLONEDDS_URI", pki.uri("intruder")}, {"SG_DDS_DOMAIN", std::to_string(kStageDomain)}}, log);
+  EXPECT_TRUE(test::exitsWith(stage, 2, 30s, log));
+  const std::string text = test::readFile(log);
+  EXPECT_NE(text.find("features error configuration error: the features stage is not allowed by DDS Security: "
+                      "dds_create_writer for topic 'stereoguard/stage_metrics' failed: Not Allowed By Security (the "
+                      "permissions of this DDS Security identity do not grant publishing it)"),
+            std::string::npos)
+      << text;
+  EXPECT_EQ(text.find("internal error"), std::string::npos) << text;
 }
 
 }  // namespace
