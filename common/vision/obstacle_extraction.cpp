@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "config/errors.hpp"
+#include "vision/simd_match.hpp"
 
 namespace sg {
 
@@ -38,7 +39,55 @@ double overlapOfSmaller(const cv::Rect& a, const cv::Rect& b) {
 
 }  // namespace
 
-ObstacleExtractor::ObstacleExtractor(const ObstacleParams& params) : params_(params) { params_.validate(); }
+void windowMatchRowReference(const std::uint8_t* left, const std::uint8_t* right, int width, int x0, int x1, int d0,
+                             int d1, int grey_tolerance, int half, std::uint8_t* out) {
+  for (int x = x0; x < x1; ++x)
+    out[x] = matchAt(left, right, x, d0, d1, grey_tolerance, half, width) ? 1 : 0;
+}
+
+ObstacleExtractor::ObstacleExtractor(const ObstacleParams& params, bool fast) : params_(params), fast_(fast) {
+  params_.validate();
+}
+
+void ObstacleExtractor::matchRow(const std::uint8_t* l, const std::uint8_t* r, int x0, int x1, int d0, int d1,
+                                 std::uint8_t* out) {
+  if (fast_) {
+    simd::windowMatchRow(l, r, cols_, x0, x1, d0, d1, params_.grey_tolerance, params_.match_half_window_px,
+                         match_scratch_.data(), out);
+  } else {
+    windowMatchRowReference(l, r, cols_, x0, x1, d0, d1, params_.grey_tolerance, params_.match_half_window_px, out);
+  }
+}
+
+void ObstacleExtractor::resetMasks(RowMasks& masks, int d0, int d1) {
+  masks.d0 = d0;
+  masks.d1 = d1;
+  masks.bits.resize(static_cast<std::size_t>(rows_) * static_cast<std::size_t>(cols_));
+  masks.lo.assign(static_cast<std::size_t>(rows_), 0);
+  masks.hi.assign(static_cast<std::size_t>(rows_), 0);
+}
+
+const std::uint8_t* ObstacleExtractor::maskRow(RowMasks& masks, const cv::Mat& remaining, const cv::Mat& right,
+                                               int y, int x0, int x1) {
+  if (x1 < 0) x1 = cols_;
+  std::uint8_t* row = masks.bits.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(cols_);
+  int& lo = masks.lo[static_cast<std::size_t>(y)];
+  int& hi = masks.hi[static_cast<std::size_t>(y)];
+  if (lo <= x0 && x1 <= hi) return row;
+  // Grow the valid span to cover [x0, x1), by at least a chunk on each side that grows
+  // (columns are often asked for one by one while a cluster's sides are searched).
+  constexpr int kChunk = 64;
+  int a = x0, b = x1;
+  if (hi > lo) {
+    a = x0 < lo ? std::max(0, std::min(x0, lo - kChunk)) : lo;
+    b = x1 > hi ? std::min(cols_, std::max(x1, hi + kChunk)) : hi;
+  }
+  // The columns already valid are recomputed with the rest: the result does not depend on the span.
+  matchRow(remaining.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), a, b, masks.d0, masks.d1, row);
+  lo = a;
+  hi = b;
+  return row;
+}
 
 void ObstacleExtractor::prepareContactRows(const GroundProfile& ground, int rows, int offsets) {
   rows_ = rows;
@@ -110,16 +159,29 @@ void ObstacleExtractor::offsetHistogram(const cv::Mat& matches, const GroundProf
   offset_hist_.assign(static_cast<std::size_t>(offsets), 0.0f);
   const double background =
       std::isfinite(ground.background_offset) ? static_cast<double>(ground.background_offset) : -1e9;
+  // Row by row (contiguous counts, a vector loop), summed as integers: whole numbers.
+  hist_limit_.resize(static_cast<std::size_t>(offsets));
   for (int d = 0; d < offsets; ++d) {
-    if (banned_[static_cast<std::size_t>(d)] || d <= background + params_.background_margin_px) continue;
-    const int limit = rowLimit(d);
-    float sum = 0.0f;
-    for (int y = 0; y <= limit; ++y) {
-      const int excess = matches.ptr<int>(y)[d] - row_median_[static_cast<std::size_t>(y)];
-      if (excess >= params_.min_row_excess) sum += static_cast<float>(excess);
-    }
-    offset_hist_[static_cast<std::size_t>(d)] = sum;
+    const bool skip = banned_[static_cast<std::size_t>(d)] || d <= background + params_.background_margin_px;
+    hist_limit_[static_cast<std::size_t>(d)] = skip ? -1 : rowLimit(d);
   }
+  const int* lim = hist_limit_.data();
+  hist_sum_.assign(static_cast<std::size_t>(offsets), 0);
+  int* sum = hist_sum_.data();
+  const int min_excess = params_.min_row_excess;
+  for (int y = 0; y < rows; ++y) {
+    const int* m = matches.ptr<int>(y);
+    const int median = row_median_[static_cast<std::size_t>(y)];
+    if (fast_) {
+      simd::addRowExcess(m, median, min_excess, y, lim, offsets, sum);
+      continue;
+    }
+    for (int d = 0; d < offsets; ++d) {
+      const int excess = m[d] - median;
+      if (excess >= min_excess && y <= lim[d]) sum[d] += excess;
+    }
+  }
+  for (int d = 0; d < offsets; ++d) offset_hist_[static_cast<std::size_t>(d)] = static_cast<float>(sum[d]);
 }
 
 ObstacleExtractor::Extent ObstacleExtractor::extent(const std::vector<float>& hist, int lo, int hi, int peak_lo,
@@ -179,7 +241,6 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   const int cols = remaining.cols;
   const int offsets = correlator.params().offsets;
   const int tol = params_.offset_tolerance_px;
-  const int grey = params_.grey_tolerance;
   const int half = params_.match_half_window_px;
   obstacles.clear();
   banned_.assign(static_cast<std::size_t>(offsets), 0);
@@ -187,6 +248,16 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   median_stale_.assign(static_cast<std::size_t>(rows), 1);
   cols_ = cols;
   prepareContactRows(ground, rows, offsets);
+  match_scratch_.resize(static_cast<std::size_t>(simd::windowMatchScratchSize(cols, half)));
+  sweep_row_.resize(static_cast<std::size_t>(cols));
+  col_count_.resize(static_cast<std::size_t>(cols));
+  if (params_.cell_px > 0) {
+    const std::size_t cells = static_cast<std::size_t>((cols + params_.cell_px - 1) / params_.cell_px) *
+                              static_cast<std::size_t>((rows + params_.cell_px - 1) / params_.cell_px);
+    if (cell_.size() != cells) cell_.assign(cells, Cell{});
+    for (const int k : touched_cells_) cell_[static_cast<std::size_t>(k)] = Cell{};
+    touched_cells_.clear();
+  }
   const bool ground_known = ground.source != GroundSource::kNone;
   const double background =
       std::isfinite(ground.background_offset) ? static_cast<double>(ground.background_offset) : -1e9;
@@ -195,32 +266,56 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   // Removing a left pixel takes its matches out of the correlation counts: it matched
   // offset d when the right pixel x - d is a feature within the correlation's grey
   // tolerance. Counting down is exact and far cheaper than recomputing the row.
+  // The right row is read mirrored so that the offsets run forward (a vector loop).
   const int corr_tol = correlator.params().grey_tolerance;
+  cv::flip(right, right_reversed_, 1);
   auto uncount = [&](int y, int x, int a) {
     int* m = matches.ptr<int>(y);
-    const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+    const std::uint8_t* r = right_reversed_.ptr<std::uint8_t>(y) + (cols - 1 - x);  // r[d] = right x - d
     const int dmax_row = std::min(offsets - 1, x);
     for (int d = 0; d <= dmax_row; ++d) {
-      const int b = r[x - d];
+      const int b = r[d];
       m[d] -= (b != 0) & (std::abs(a - b) <= corr_tol);
     }
   };
-  // Matched pixels of the box at [d0, d1], optionally cleared and labelled.
-  // With `per_column`, column x matches around col_offset_[x] only (grown clusters: each
-  // column of a receding wall has its own offset), which is both tighter and much cheaper
-  // than the whole offset range of the cluster.
-  auto sweepBox = [&](const cv::Rect& box, int d0, int d1, int clear_label, bool per_column = false) {
+  // Matched pixels of the box, optionally cleared and labelled. At the candidate's offset
+  // (+-tol) they come from its masks; with `per_column`, column x matches around
+  // col_offset_[x] only (grown clusters: each column of a receding wall has its own offset).
+  int best = 0;
+  auto sweepBox = [&](const cv::Rect& box, int clear_label, bool per_column) {
     int count = 0;
+    const int bx1 = box.x + box.width;
     for (int y = box.y; y < box.y + box.height; ++y) {
       std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
       const std::uint8_t* r = right.ptr<std::uint8_t>(y);
       std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+      const std::uint8_t* mk = sweep_row_.data();
+      if (!per_column) {
+        mk = maskRow(candidate_masks_, remaining, right, y, box.x, bx1);
+      } else {
+        for (int xa = box.x; xa < bx1;) {  // runs of columns sharing an offset
+          const int d = col_offset_[static_cast<std::size_t>(xa)];
+          int xb = xa + 1;
+          while (xb < bx1 && col_offset_[static_cast<std::size_t>(xb)] == d) ++xb;
+          matchRow(l, r, xa, xb, d - tol - 1, d + tol + 1, sweep_row_.data());
+          xa = xb;
+        }
+      }
       bool changed = false;
-      for (int x = box.x; x < box.x + box.width; ++x) {
-        const int c0 = per_column ? col_offset_[static_cast<std::size_t>(x)] - tol - 1 : d0;
-        const int c1 = per_column ? col_offset_[static_cast<std::size_t>(x)] + tol + 1 : d1;
-        if (!matchAt(l, r, x, c0, c1, grey, half, cols)) continue;
+      int last_cleared = std::numeric_limits<int>::min() / 2;
+      for (int x = box.x; x < bx1; ++x) {
+        // Pixels are cleared left to right, and a cleared pixel no longer spoils the windows
+        // of the pixels after it: a miss within `half` of the last cleared pixel is matched
+        // again on the row as it is now (a clearing never turns a match into a miss).
+        bool matched = mk[x] != 0;
+        if (!matched && clear_label >= 0 && x - last_cleared <= half && l[x] != 0) {
+          const int c = per_column ? col_offset_[static_cast<std::size_t>(x)] : best;
+          const int slack = per_column ? tol + 1 : tol;
+          matched = matchAt(l, r, x, c - slack, c + slack, params_.grey_tolerance, half, cols);
+        }
+        if (!matched) continue;
         ++count;
+        last_cleared = x;
         if (clear_label >= 0) {
           uncount(y, x, l[x]);
           l[x] = 0;
@@ -245,57 +340,55 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
        iteration < params_.max_iterations && static_cast<int>(obstacles.size()) < params_.max_obstacles;
        ++iteration) {
     offsetHistogram(matches, ground);
-    const int best = static_cast<int>(std::max_element(offset_hist_.begin(), offset_hist_.end()) - offset_hist_.begin());
+    best = static_cast<int>(std::max_element(offset_hist_.begin(), offset_hist_.end()) - offset_hist_.begin());
     if (offset_hist_[static_cast<std::size_t>(best)] < static_cast<float>(params_.min_peak_matches)) break;
     const int limit = rowLimit(best);
 
-    // Matched pixels at d* (+-tol), evaluated on first use and kept for this candidate: the
-    // histograms below need whole rows only where the offset shows, elsewhere only the stripe.
-    // Cell states: kUnknown, kNoMatch, kMatch (a match reads as 1 after subtracting kNoMatch).
-    constexpr std::uint8_t kUnknown = 0, kNoMatch = 1;
-    mask_.assign(static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols), kUnknown);
-    auto maskAt = [&](int y, int x) -> int {
-      std::uint8_t& cell = mask_[static_cast<std::size_t>(y) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(x)];
-      if (cell == kUnknown)
-        cell = static_cast<std::uint8_t>(
-            kNoMatch + (matchAt(remaining.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, best - tol, best + tol,
-                                grey, half, cols)
-                            ? 1
-                            : 0));
-      return cell - kNoMatch;
-    };
+    // Matched pixels at d* (+-tol), a row at a time on first use, kept for this candidate:
+    // the histograms below need whole rows only where the offset shows, elsewhere the stripe.
+    resetMasks(candidate_masks_, best - tol, best + tol);
+    auto maskAt = [&](int y, int x) -> int { return maskRow(candidate_masks_, remaining, right, y, x, x + 1)[x]; };
     // Per column, the rows above the ground of d* (on a transversal slope they differ).
     col_limit_.resize(static_cast<std::size_t>(cols));
     for (int x = 0; x < cols; ++x) col_limit_[static_cast<std::size_t>(x)] = rowLimitAt(best, x);
+    const int stripe_floor = *std::min_element(col_limit_.begin(), col_limit_.end());
     auto inStripe = [&](int y, int x) { return y <= col_limit_[static_cast<std::size_t>(x)]; };
+    // Matches inside the stripe (a match implies a left feature) counted per column over rows.
+    auto columnHistogram = [&](int ya, int yb, bool showing_rows_only) {
+      std::fill(col_count_.begin(), col_count_.end(), std::uint16_t{0});
+      std::uint16_t* h = col_count_.data();
+      const int* lim = col_limit_.data();
+      for (int y = ya; y <= yb; ++y) {
+        if (showing_rows_only &&
+            matches.ptr<int>(y)[best] - row_median_[static_cast<std::size_t>(y)] < params_.min_row_excess)
+          continue;
+        const std::uint8_t* mk = maskRow(candidate_masks_, remaining, right, y);
+        if (y <= stripe_floor) {  // every column shows this row
+          for (int x = 0; x < cols; ++x) h[x] = static_cast<std::uint16_t>(h[x] + mk[x]);
+        } else {
+          for (int x = 0; x < cols; ++x) h[x] = static_cast<std::uint16_t>(h[x] + (y <= lim[x] ? mk[x] : 0));
+        }
+      }
+      col_hist_.resize(static_cast<std::size_t>(cols));
+      for (int x = 0; x < cols; ++x) col_hist_[static_cast<std::size_t>(x)] = static_cast<float>(h[x]);
+    };
     // Column histogram over the rows that show the offset.
-    col_hist_.assign(static_cast<std::size_t>(cols), 0.0f);
-    for (int y = 0; y <= limit; ++y) {
-      if (matches.ptr<int>(y)[best] - row_median_[static_cast<std::size_t>(y)] < params_.min_row_excess) continue;
-      const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
-      for (int x = 0; x < cols; ++x)
-        if (l[x] && inStripe(y, x)) col_hist_[static_cast<std::size_t>(x)] += static_cast<float>(maskAt(y, x));
-    }
+    columnHistogram(0, limit, true);
     Extent cx = extent(col_hist_, 0, cols - 1, 0, cols - 1);
     Extent cy;
     if (cx.hi >= cx.lo) {
       // Row histogram inside the stripe, then the columns again over those rows.
       row_hist_.assign(static_cast<std::size_t>(rows), 0.0f);
+      const int* lim = col_limit_.data();
       for (int y = 0; y <= limit; ++y) {
-        const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+        const std::uint8_t* mk = maskRow(candidate_masks_, remaining, right, y, cx.lo, cx.hi + 1);
         int sum = 0;
-        for (int x = cx.lo; x <= cx.hi; ++x)
-          if (l[x] && inStripe(y, x)) sum += maskAt(y, x);
+        for (int x = cx.lo; x <= cx.hi; ++x) sum += y <= lim[x] ? mk[x] : 0;
         row_hist_[static_cast<std::size_t>(y)] = static_cast<float>(sum);
       }
       cy = extent(row_hist_, 0, limit, 0, limit);
       if (cy.hi >= cy.lo) {
-        col_hist_.assign(static_cast<std::size_t>(cols), 0.0f);
-        for (int y = cy.lo; y <= cy.hi; ++y) {
-          const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
-          for (int x = 0; x < cols; ++x)
-            if (l[x] && inStripe(y, x)) col_hist_[static_cast<std::size_t>(x)] += static_cast<float>(maskAt(y, x));
-        }
+        columnHistogram(cy.lo, cy.hi, false);
         cx = extent(col_hist_, 0, cols - 1, cx.lo, cx.hi);
       }
     }
@@ -306,7 +399,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     // Not an obstacle: drop the evidence of d* in `region` (the box and the place its histograms
     // pointed at) so that the next candidate comes up; an offset that leaves nothing is done.
     auto rejectCandidate = [&](const cv::Rect& region) {
-      if (sweepBox(region, best - tol, best + tol, kLabelUnassigned) == 0) banned_[static_cast<std::size_t>(best)] = 1;
+      if (sweepBox(region, kLabelUnassigned, false) == 0) banned_[static_cast<std::size_t>(best)] = 1;
     };
     int x0 = cx.lo, x1 = cx.hi, y0 = cy.lo, y1 = cy.hi;
     float cluster_matches = 0.0f;  // matched pixels of the cluster at d*
@@ -317,19 +410,24 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       const int cs = params_.cell_px;
       const int gw = (cols + cs - 1) / cs;
       const int gh = (limit + 1 + cs - 1) / cs;
-      cell_.assign(static_cast<std::size_t>(gw) * static_cast<std::size_t>(gh), Cell{});
+      for (const int k : touched_cells_) cell_[static_cast<std::size_t>(k)] = Cell{};
+      touched_cells_.clear();
       auto cellAt = [&](int i, int j) -> Cell& {
-        Cell& c = cell_[static_cast<std::size_t>(j) * static_cast<std::size_t>(gw) + static_cast<std::size_t>(i)];
+        const int k = j * gw + i;
+        Cell& c = cell_[static_cast<std::size_t>(k)];
         if (c.state != kCellUnknown) return c;
+        touched_cells_.push_back(k);
         int matched = 0, present = 0;
         c.x0 = cols;
         c.y0 = rows;
         for (int y = j * cs; y < std::min((j + 1) * cs, limit + 1); ++y) {
           const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+          const std::uint8_t* mk =
+              maskRow(candidate_masks_, remaining, right, y, i * cs, std::min((i + 1) * cs, cols));
           for (int x = i * cs; x < std::min((i + 1) * cs, cols); ++x) {
             if (!l[x] || !inStripe(y, x)) continue;
             ++present;
-            if (maskAt(y, x)) {
+            if (mk[x]) {
               ++matched;
               c.x0 = std::min(c.x0, x);
               c.x1 = std::max(c.x1, x);
@@ -400,16 +498,16 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         const int ya = y0;
         const int yb = rowLimit(d);
         if (yb < ya) return false;
+        resetMasks(growth_masks_, d - tol, d + tol);
         // Column evidence at d, computed only for the columns a run walks over.
         // A column whose features mostly do not match at d shows texture at other depths.
         auto columnAt = [&](int x) {
           int count = 0, present = 0;
           const int yc = std::min(yb, rowLimitAt(d, x));
           for (int y = ya; y <= yc; ++y) {
-            const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
-            if (!l[x]) continue;
+            if (!remaining.ptr<std::uint8_t>(y)[x]) continue;
             ++present;
-            count += matchAt(l, right.ptr<std::uint8_t>(y), x, d - tol, d + tol, grey, half, cols);
+            count += maskRow(growth_masks_, remaining, right, y, x, x + 1)[x];
           }
           if (count < params_.min_match_fraction * present) count = 0;
           col_hist_[static_cast<std::size_t>(x)] = static_cast<float>(count);
@@ -447,9 +545,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           if (x >= x0 && x <= x1) continue;
           const int yc = std::min(yb, rowLimitAt(d, x));
           for (int y = ya; y <= yc; ++y)
-            if (matchAt(remaining.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, d - tol, d + tol, grey, half,
-                        cols))
-              row_hist_[static_cast<std::size_t>(y)] += 1.0f;
+            if (maskRow(growth_masks_, remaining, right, y, x, x + 1)[x]) row_hist_[static_cast<std::size_t>(y)] += 1.0f;
         }
         const Extent ey = extent(row_hist_, ya, yb, ya, yb);
         if (ey.hi >= ey.lo) {
@@ -509,7 +605,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       }
     }
     const cv::Rect box(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
-    const int count = sweepBox(box, dmin - tol, dmax + tol, -1, true);
+    const int count = sweepBox(box, -1, true);
     const int present = cv::countNonZero(remaining(box));
     const bool unmatched = count < params_.min_match_fraction * present;
     if (floating || unmatched || count < params_.min_cluster_features || box.height < params_.min_height_px ||
@@ -528,7 +624,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       }
     }
     if (merged) {
-      merged->feature_count += sweepBox(box, dmin - tol, dmax + tol, merged->label, true);
+      merged->feature_count += sweepBox(box, merged->label, true);
       merged->box |= box;
       merged->min_offset_px = std::min(merged->min_offset_px, dmin);
       merged->max_offset_px = std::max(merged->max_offset_px, dmax);
@@ -540,7 +636,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     cluster.min_offset_px = dmin;
     cluster.max_offset_px = dmax;
     cluster.box = box;
-    cluster.feature_count = sweepBox(box, dmin - tol, dmax + tol, cluster.label, true);
+    cluster.feature_count = sweepBox(box, cluster.label, true);
     obstacles.push_back(cluster);
   }
   // The score left behind describes what remains (same arithmetic as Correlator).

@@ -96,9 +96,15 @@ struct ObstacleParams {
   void validate() const { validateParams(*this, "obstacles"); }
 };
 
+// Serial reference of simd::windowMatchRow: out[x] for x in [x0, x1) is 1 when left
+// pixel x matches the right row at an offset in [d0, d1] over its window of +-half pixels.
+void windowMatchRowReference(const std::uint8_t* left, const std::uint8_t* right, int width, int x0, int x1, int d0,
+                             int d1, int grey_tolerance, int half, std::uint8_t* out);
+
 class ObstacleExtractor {
  public:
-  explicit ObstacleExtractor(const ObstacleParams& params = {});
+  // fast: rows matched by the vector kernel; false runs the serial reference (identical results).
+  explicit ObstacleExtractor(const ObstacleParams& params = {}, bool fast = true);
 
   // remaining: left features still unexplained (modified: obstacle pixels are cleared).
   // right: right feature image. score/matches: the correlation of `remaining`, valid
@@ -125,7 +131,21 @@ class ObstacleExtractor {
   int rowLimitAt(int offset, int x) const;  // last row an obstacle at this offset may occupy in column x
   int contactRowAt(int offset, int x) const;  // ground contact row of this offset in column x, rows when none
 
+  // Matches of rows at one offset range, evaluated on first use: per row the columns
+  // [lo, hi) are valid.
+  struct RowMasks {
+    int d0 = 0, d1 = -1;
+    std::vector<std::uint8_t> bits;  // rows x cols, 0/1
+    std::vector<int> lo, hi;         // per row
+  };
+  void resetMasks(RowMasks& masks, int d0, int d1);
+  // Row y of `masks`, valid at least over columns [x0, x1) (the whole row by default).
+  const std::uint8_t* maskRow(RowMasks& masks, const cv::Mat& remaining, const cv::Mat& right, int y, int x0 = 0,
+                              int x1 = -1);
+  void matchRow(const std::uint8_t* l, const std::uint8_t* r, int x0, int x1, int d0, int d1, std::uint8_t* out);
+
   ObstacleParams params_;
+  bool fast_ = true;
   int rows_ = 0;
   int cols_ = 0;
   int ground_top_ = 0;             // first ground row (the horizon)
@@ -135,6 +155,8 @@ class ObstacleExtractor {
   std::vector<int> row_limit_;       // per offset: last row counted in its offset histogram
   std::vector<int> col_limit_;       // per column: last row of the current candidate's offset
   std::vector<float> offset_hist_;
+  std::vector<int> hist_sum_;         // per offset: excess summed (at most rows x cols)
+  std::vector<int> hist_limit_;      // per offset: last row its histogram counts, -1 when it is left out
   std::vector<int> row_median_;
   std::vector<std::uint8_t> median_stale_;  // rows whose match counts changed since their median
   std::vector<int> row_values_;
@@ -142,7 +164,12 @@ class ObstacleExtractor {
   std::vector<float> row_hist_;
   std::vector<float> smooth_;
   std::vector<int> col_offset_;      // per column: the offset the cluster matched it at
-  std::vector<std::uint8_t> mask_;   // matches at the current offset, rows x cols, evaluated on first use
+  RowMasks candidate_masks_;         // matches at the current candidate's offset
+  RowMasks growth_masks_;            // matches at the offset a wall is grown over
+  std::vector<std::uint8_t> match_scratch_;
+  std::vector<std::uint8_t> sweep_row_;
+  std::vector<std::uint16_t> col_count_;  // per column: matches (at most the row count, < 2^16)
+  cv::Mat right_reversed_;                // right features mirrored left-right: right x - d at d ascending
   std::vector<std::uint8_t> banned_;  // offsets that gave nothing this frame
   static constexpr std::uint8_t kCellUnknown = 0, kCellInactive = 1, kCellActive = 2;
   struct Cell {
@@ -152,6 +179,7 @@ class ObstacleExtractor {
     int x0 = 0, y0 = 0, x1 = -1, y1 = -1;  // bounding box of the matched pixels
   };
   std::vector<Cell> cell_;
+  std::vector<int> touched_cells_;  // cells evaluated this iteration (reset before the next)
   std::vector<int> flood_;   // cells still to visit while growing a cluster
 };
 

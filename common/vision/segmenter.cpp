@@ -18,7 +18,7 @@ Segmenter::Segmenter(const SegmenterParams& params)
       correlator_(params.correlation),
       ground_(params.ground),
       remover_(params.removal),
-      obstacles_(params.obstacles) {
+      obstacles_(params.obstacles, params.parallel) {
   params_.validate();
 }
 

@@ -245,6 +245,90 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
   }
 }
 
+// q[j] = 0xFF where pixel j cannot spoil a window at offset d (j < d, outside the
+// row, no left feature, or a right match), then the windows ANDed over [-half, half].
+[[gnu::always_inline]] inline void windowMatchImpl(const std::uint8_t* left, const std::uint8_t* right, int width,
+                                                   int x0, int x1, int d0, int d1, int tol, int half,
+                                                   std::uint8_t* q, std::uint8_t* out) {
+  if (x1 <= x0) return;
+  std::memset(out + x0, 0, static_cast<std::size_t>(x1 - x0));
+  const U8x32 vtol = splat(tol);
+  const U8x32 vtop = splat(255 - tol);
+  const U8x32 one = splat(1);
+  const U8x32 zero{};
+  const int qlo = x0 - half;  // q[i] describes pixel qlo + i
+  const int qhi = x1 + half;
+  for (int d = std::max(d0, 0); d <= d1 && d < x1; ++d) {
+    const int ja = std::min(std::max(qlo, d), qhi);
+    const int jb = std::max(std::min(qhi, width), ja);
+    std::memset(q, 0xFF, static_cast<std::size_t>(ja - qlo));
+    // The last vector may overlap the one before it (same values written twice).
+    auto qVector = [&](int j) __attribute__((always_inline)) {
+      const U8x32 a = load(left + j);
+      const U8x32 b = load(right + j - d);
+      U8x32 lo = a > vtol ? a - vtol : zero;
+      lo = lo < one ? one : lo;
+      const U8x32 hi = a > vtop ? splat(255) : a + vtol;
+      const U8x32 ok = matchMask(b, lo, hi - lo) | __builtin_convertvector(a == zero, U8x32);
+      std::memcpy(q + (j - qlo), &ok, sizeof(ok));
+    };
+    int j = ja;
+    for (; j + kLanes <= jb; j += kLanes) qVector(j);
+    if (j < jb && jb - kLanes >= ja) {
+      qVector(jb - kLanes);
+      j = jb;
+    }
+    for (; j < jb; ++j) {
+      const int a = left[j];
+      const int b = right[j - d];
+      q[j - qlo] = (a == 0 || (b != 0 && std::abs(a - b) <= tol)) ? 0xFF : 0;
+    }
+    std::memset(q + (jb - qlo), 0xFF, static_cast<std::size_t>(qhi - jb));
+    // ORing a pixel's result twice changes nothing: the last vector may overlap too.
+    auto outVector = [&](int xv) __attribute__((always_inline)) {
+      U8x32 m = __builtin_convertvector(load(left + xv) != zero, U8x32);
+      for (int k = -half; k <= half; ++k) m &= load(q + (xv + k - qlo));
+      U8x32 o = load(out + xv);
+      o |= m & one;
+      std::memcpy(out + xv, &o, sizeof(o));
+    };
+    const int xa = std::max(x0, d);
+    int x = xa;
+    for (; x + kLanes <= x1; x += kLanes) outVector(x);
+    if (x < x1 && x1 - kLanes >= xa) {
+      outVector(x1 - kLanes);
+      x = x1;
+    }
+    for (; x < x1; ++x) {
+      int m = left[x] != 0;
+      for (int k = -half; k <= half; ++k) m &= q[x + k - qlo] != 0;
+      out[x] = static_cast<std::uint8_t>(out[x] | m);
+    }
+  }
+}
+
+[[gnu::always_inline]] inline void rowExcessImpl(const int* counts, int median, int min_excess, int row,
+                                                 const int* last_row, int n, int* sum) {
+  typedef std::int32_t I32x8 __attribute__((vector_size(32)));
+  const I32x8 vmed = I32x8{} + median;
+  const I32x8 vmin = I32x8{} + min_excess;
+  const I32x8 vrow = I32x8{} + row;
+  int d = 0;
+  for (; d + 8 <= n; d += 8) {
+    I32x8 c, lim, s;
+    std::memcpy(&c, counts + d, sizeof(c));
+    std::memcpy(&lim, last_row + d, sizeof(lim));
+    std::memcpy(&s, sum + d, sizeof(s));
+    const I32x8 e = c - vmed;
+    s += e & ((e >= vmin) & (vrow <= lim));
+    std::memcpy(sum + d, &s, sizeof(s));
+  }
+  for (; d < n; ++d) {
+    const int e = counts[d] - median;
+    if (e >= min_excess && row <= last_row[d]) sum[d] += e;
+  }
+}
+
 // kFloats lanes: 8 in the AVX2 build, 4 in the baseline one (wider selections
 // there become scalar code through the stack).
 template <int kFloats>
@@ -313,11 +397,29 @@ template <int kFloats>
                                             int w, int thr, int r, std::uint8_t* scratch, std::uint8_t* out) {
   featureRowImpl(pm, p0, pp, w, thr, r, scratch, out);
 }
+[[gnu::target("avx2")]] void windowMatchAvx2(const std::uint8_t* left, const std::uint8_t* right, int width, int x0,
+                                             int x1, int d0, int d1, int tol, int half, std::uint8_t* q,
+                                             std::uint8_t* out) {
+  windowMatchImpl(left, right, width, x0, x1, d0, d1, tol, half, q, out);
+}
+[[gnu::target("avx2")]] void rowExcessAvx2(const int* counts, int median, int min_excess, int row, const int* last_row,
+                                           int n, int* sum) {
+  rowExcessImpl(counts, median, min_excess, row, last_row, n, sum);
+}
 [[gnu::target("avx2")]] void markAvx2(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d0,
                                       int d1, int tol, std::uint8_t* marks) {
   markImpl(left, right, x0, x1, d0, d1, tol, marks);
 }
 #endif
+
+void windowMatchBaseline(const std::uint8_t* left, const std::uint8_t* right, int width, int x0, int x1, int d0,
+                         int d1, int tol, int half, std::uint8_t* q, std::uint8_t* out) {
+  windowMatchImpl(left, right, width, x0, x1, d0, d1, tol, half, q, out);
+}
+
+void rowExcessBaseline(const int* counts, int median, int min_excess, int row, const int* last_row, int n, int* sum) {
+  rowExcessImpl(counts, median, min_excess, row, last_row, n, sum);
+}
 
 void markBaseline(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d0, int d1, int tol,
                   std::uint8_t* marks) {
@@ -386,6 +488,21 @@ void markMatches(const std::uint8_t* left, const std::uint8_t* right, int x0, in
   if (useAvx2()) return markAvx2(left, right, x0, x1, d0, d1, grey_tolerance, marks);
 #endif
   markBaseline(left, right, x0, x1, d0, d1, grey_tolerance, marks);
+}
+
+void windowMatchRow(const std::uint8_t* left, const std::uint8_t* right, int width, int x0, int x1, int d0, int d1,
+                    int grey_tolerance, int half, std::uint8_t* scratch, std::uint8_t* out) {
+#ifdef SG_SIMD_X86
+  if (useAvx2()) return windowMatchAvx2(left, right, width, x0, x1, d0, d1, grey_tolerance, half, scratch, out);
+#endif
+  windowMatchBaseline(left, right, width, x0, x1, d0, d1, grey_tolerance, half, scratch, out);
+}
+
+void addRowExcess(const int* counts, int median, int min_excess, int row, const int* last_row, int n, int* sum) {
+#ifdef SG_SIMD_X86
+  if (useAvx2()) return rowExcessAvx2(counts, median, min_excess, row, last_row, n, sum);
+#endif
+  rowExcessBaseline(counts, median, min_excess, row, last_row, n, sum);
 }
 
 float houghWindowSums(const float* lo, const float* mid, const float* hi, int n, float* out) {

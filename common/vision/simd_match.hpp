@@ -44,6 +44,20 @@ void featureRow(const std::uint8_t* pm, const std::uint8_t* p0, const std::uint8
 void markMatches(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d0, int d1,
                  int grey_tolerance, std::uint8_t* marks);
 
+// Obstacles (ObstacleExtractor): for x in [x0, x1), out[x] = 1 when left pixel x
+// matches the right row at some offset d in [d0, d1] over its window, else 0.
+// It matches at d when left[x] != 0, d <= x, and every pixel j of [x - half,
+// x + half] with d <= j < width either is no left feature (j != x) or has
+// right[j - d] != 0 and |left[j] - right[j - d]| <= grey_tolerance. `scratch`
+// holds at least windowMatchScratchSize(x1 - x0, half) bytes.
+constexpr int windowMatchScratchSize(int span, int half) { return span + 2 * half; }
+void windowMatchRow(const std::uint8_t* left, const std::uint8_t* right, int width, int x0, int x1, int d0, int d1,
+                    int grey_tolerance, int half, std::uint8_t* scratch, std::uint8_t* out);
+
+// Obstacle offset histogram, one row: for d in [0, n), sum[d] += counts[d] - median
+// where that excess is at least min_excess and row <= last_row[d].
+void addRowExcess(const int* counts, int median, int min_excess, int row, const int* last_row, int n, int* sum);
+
 // Hough 3x3 window sums (GroundEstimator): out[b] = 0.0f + lo[b - 1] + lo[b] +
 // lo[b + 1] + mid[b - 1] + mid[b] + mid[b + 1] + hi[b - 1] + hi[b] + hi[b + 1],
 // added left to right in float, for b in [0, n). The rows must be readable at

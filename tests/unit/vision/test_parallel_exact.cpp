@@ -1,8 +1,10 @@
 // The row-band parallel paths give bit-identical outputs to the serial
 // references, whatever the thread count, on analytic and real pairs.
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <optional>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -10,6 +12,7 @@
 #include "analytic_scene.hpp"
 #include "test_helpers.hpp"
 #include "vision/segmenter.hpp"
+#include "vision/simd_match.hpp"
 
 namespace sg {
 namespace {
@@ -375,6 +378,81 @@ TEST(FastRemoval, MatchesTheReferenceWithTransversalSlopeAndUnknownRows) {
         ASSERT_EQ(ch, ch_ref);
       }
     }
+  }
+}
+
+}  // namespace
+}  // namespace sg
+
+namespace sg {
+namespace {
+
+// Sparse feature rows (runs of features, zeros between) with right rows that
+// are the left shifted by a known offset plus noise: every window case occurs.
+void randomFeatureRow(cv::RNG& rng, int width, std::vector<std::uint8_t>& row) {
+  row.assign(static_cast<std::size_t>(width), 0);
+  for (int x = 0; x < width;) {
+    const int run = rng.uniform(1, 9);
+    const bool on = rng.uniform(0, 3) != 0;
+    for (int k = 0; k < run && x < width; ++k, ++x)
+      row[static_cast<std::size_t>(x)] = on ? static_cast<std::uint8_t>(rng.uniform(1, 256)) : 0;
+  }
+}
+
+TEST(FastObstacles, WindowMatchRowMatchesTheReferenceForAnyOffsetsWindowAndSpan) {
+  cv::RNG rng(23);
+  std::vector<std::uint8_t> left, right, scratch, fast, ref;
+  for (const int width : {1, 2, 31, 32, 33, 64, 100, 301, 1242}) {
+    for (int trial = 0; trial < 6; ++trial) {
+      randomFeatureRow(rng, width, left);
+      const int shift = rng.uniform(0, std::max(1, width / 3));
+      right.assign(static_cast<std::size_t>(width), 0);
+      for (int x = 0; x < width; ++x) {
+        const int src = x + shift;
+        int v = src < width ? left[static_cast<std::size_t>(src)] : 0;
+        if (v != 0) v = std::clamp(v + rng.uniform(-14, 15), 1, 255);
+        if (rng.uniform(0, 20) == 0) v = rng.uniform(0, 256);  // occlusions, aliasing
+        right[static_cast<std::size_t>(x)] = static_cast<std::uint8_t>(v);
+      }
+      for (const int half : {0, 1, 2, 8}) {
+        const int tol = rng.uniform(0, 30);
+        const int d0 = shift - rng.uniform(-2, 4);
+        const int d1 = d0 + rng.uniform(0, 5);
+        const int x0 = rng.uniform(0, width);
+        const int x1 = rng.uniform(x0, width + 1);
+        SCOPED_TRACE("width " + std::to_string(width) + ", offsets " + std::to_string(d0) + ".." +
+                     std::to_string(d1) + ", half " + std::to_string(half) + ", tolerance " + std::to_string(tol) +
+                     ", columns " + std::to_string(x0) + ".." + std::to_string(x1));
+        scratch.assign(static_cast<std::size_t>(simd::windowMatchScratchSize(x1 - x0, half)), 0x5A);
+        fast.assign(static_cast<std::size_t>(width), 0x77);
+        ref.assign(static_cast<std::size_t>(width), 0x77);
+        simd::windowMatchRow(left.data(), right.data(), width, x0, x1, d0, d1, tol, half, scratch.data(),
+                             fast.data());
+        windowMatchRowReference(left.data(), right.data(), width, x0, x1, d0, d1, tol, half, ref.data());
+        ASSERT_EQ(fast, ref);  // columns outside [x0, x1) untouched by both
+      }
+    }
+  }
+}
+
+TEST(FastObstacles, RowExcessMatchesTheScalarSum) {
+  cv::RNG rng(29);
+  for (const int n : {1, 7, 8, 9, 64, 128, 131}) {
+    std::vector<int> counts(static_cast<std::size_t>(n)), last(static_cast<std::size_t>(n));
+    std::vector<int> fast(static_cast<std::size_t>(n), 3), ref(static_cast<std::size_t>(n), 3);
+    for (int row = 0; row < 40; ++row) {
+      for (int d = 0; d < n; ++d) {
+        counts[static_cast<std::size_t>(d)] = rng.uniform(0, 60);
+        last[static_cast<std::size_t>(d)] = rng.uniform(-1, 40);
+      }
+      const int median = rng.uniform(0, 30);
+      simd::addRowExcess(counts.data(), median, 5, row, last.data(), n, fast.data());
+      for (int d = 0; d < n; ++d) {
+        const int e = counts[static_cast<std::size_t>(d)] - median;
+        if (e >= 5 && row <= last[static_cast<std::size_t>(d)]) ref[static_cast<std::size_t>(d)] += e;
+      }
+    }
+    ASSERT_EQ(fast, ref) << n << " offsets";
   }
 }
 
