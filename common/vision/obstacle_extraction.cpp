@@ -81,6 +81,9 @@ const std::uint8_t* ObstacleExtractor::maskRow(RowMasks& masks, const cv::Mat& r
   if (hi > lo) {
     a = x0 < lo ? std::max(0, std::min(x0, lo - kChunk)) : lo;
     b = x1 > hi ? std::min(cols_, std::max(x1, hi + kChunk)) : hi;
+  } else if (b - a < kChunk) {  // narrow first requests (cells): a chunk around them, vector-wide
+    a = std::max(0, std::min(a, (a + b - kChunk) / 2));
+    b = std::min(cols_, std::max(b, a + kChunk));
   }
   // The columns already valid are recomputed with the rest: the result does not depend on the span.
   matchRow(remaining.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), a, b, masks.d0, masks.d1, row);
