@@ -154,8 +154,18 @@ void ObstacleExtractor::offsetHistogram(const cv::Mat& matches, const GroundProf
     if (!median_stale_[static_cast<std::size_t>(y)]) continue;
     median_stale_[static_cast<std::size_t>(y)] = 0;
     const int* m = matches.ptr<int>(y);
+    // Removals change a few counts by a little: the previous median usually still is the
+    // (offsets / 2)-th smallest, which one counting pass shows.
+    const int previous = row_median_[static_cast<std::size_t>(y)];
+    int below = 0, at_most = 0;
+    for (int d = 0; d < offsets; ++d) {
+      below += m[d] < previous;
+      at_most += m[d] <= previous;
+    }
+    const int k = offsets / 2;
+    if (below <= k && k < at_most) continue;
     row_values_.assign(m, m + offsets);
-    const auto mid = row_values_.begin() + offsets / 2;
+    const auto mid = row_values_.begin() + k;
     std::nth_element(row_values_.begin(), mid, row_values_.end());
     row_median_[static_cast<std::size_t>(y)] = *mid;
   }
@@ -300,7 +310,10 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           const int d = col_offset_[static_cast<std::size_t>(xa)];
           int xb = xa + 1;
           while (xb < bx1 && col_offset_[static_cast<std::size_t>(xb)] == d) ++xb;
-          matchRow(l, r, xa, xb, d - tol - 1, d + tol + 1, sweep_row_.data());
+          // At least a vector wide: columns to the right of the run belong to runs not
+          // computed yet, which overwrite them.
+          matchRow(l, r, xa, std::min(cols, std::max(xb, xa + simd::kLanes)), d - tol - 1, d + tol + 1,
+                   sweep_row_.data());
           xa = xb;
         }
       }
