@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 
 #include "config/errors.hpp"
@@ -279,17 +280,36 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   // Removing a left pixel takes its matches out of the correlation counts: it matched
   // offset d when the right pixel x - d is a feature within the correlation's grey
   // tolerance. Counting down is exact and far cheaper than recomputing the row.
-  // The right row is read mirrored so that the offsets run forward (a vector loop).
+  // The fast path collects a row's cleared pixels and counts them with the correlation's
+  // vector kernel (right rows with its zero padding in front).
   const int corr_tol = correlator.params().grey_tolerance;
-  cv::flip(right, right_reversed_, 1);
+  const int pad = simd::rightPadding(offsets);
+  if (fast_) {
+    right_padded_.create(rows, pad + cols, CV_8UC1);  // kept between frames of one size
+    for (int y = 0; y < rows; ++y) {
+      std::uint8_t* rp = right_padded_.ptr<std::uint8_t>(y);
+      std::memset(rp, 0, static_cast<std::size_t>(pad));
+      std::memcpy(rp + pad, right.ptr<std::uint8_t>(y), static_cast<std::size_t>(cols));
+    }
+    cleared_.assign(static_cast<std::size_t>(cols), 0);
+    removed_counts_.resize(static_cast<std::size_t>(offsets));
+  }
   auto uncount = [&](int y, int x, int a) {
     int* m = matches.ptr<int>(y);
-    const std::uint8_t* r = right_reversed_.ptr<std::uint8_t>(y) + (cols - 1 - x);  // r[d] = right x - d
+    const std::uint8_t* r = right.ptr<std::uint8_t>(y);
     const int dmax_row = std::min(offsets - 1, x);
     for (int d = 0; d <= dmax_row; ++d) {
-      const int b = r[d];
+      const int b = r[x - d];
       m[d] -= (b != 0) & (std::abs(a - b) <= corr_tol);
     }
+  };
+  auto uncountRow = [&](int y, int xa, int xb) {  // the fast path: cleared_ holds [xa, xb)
+    std::fill(removed_counts_.begin(), removed_counts_.end(), 0);
+    simd::accumulateMatches(cleared_.data(), nullptr, right_padded_.ptr<std::uint8_t>(y) + pad, xa, xb, offsets,
+                            corr_tol, removed_counts_.data());
+    int* m = matches.ptr<int>(y);
+    for (int d = 0; d < offsets; ++d) m[d] -= removed_counts_[static_cast<std::size_t>(d)];
+    std::fill(cleared_.begin() + xa, cleared_.begin() + xb, std::uint8_t{0});
   };
   // Matched pixels of the box, optionally cleared and labelled. At the candidate's offset
   // (+-tol) they come from its masks; with `per_column`, column x matches around
@@ -318,6 +338,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         }
       }
       bool changed = false;
+      int first_cleared = -1;
       int last_cleared = std::numeric_limits<int>::min() / 2;
       for (int x = box.x; x < bx1; ++x) {
         // Pixels are cleared left to right, and a cleared pixel no longer spoils the windows
@@ -333,13 +354,19 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         ++count;
         last_cleared = x;
         if (clear_label >= 0) {
-          uncount(y, x, l[x]);
+          if (fast_) {
+            cleared_[static_cast<std::size_t>(x)] = l[x];
+            if (first_cleared < 0) first_cleared = x;
+          } else {
+            uncount(y, x, l[x]);
+          }
           l[x] = 0;
           lab[x] = static_cast<std::uint8_t>(clear_label);
           changed = true;
         }
       }
       if (changed) {
+        if (fast_) uncountRow(y, first_cleared, last_cleared + 1);
         changed_rows[static_cast<std::size_t>(y)] = 1;
         median_stale_[static_cast<std::size_t>(y)] = 1;
       }

@@ -169,7 +169,9 @@ class ObstacleExtractor {
   std::vector<std::uint8_t> match_scratch_;
   std::vector<std::uint8_t> sweep_row_;
   std::vector<std::uint16_t> col_count_;  // per column: matches (at most the row count, < 2^16)
-  cv::Mat right_reversed_;                // right features mirrored left-right: right x - d at d ascending
+  cv::Mat right_padded_;                  // right features with the correlation kernel's zeros in front
+  std::vector<std::uint8_t> cleared_;     // a row's cleared left pixels (their grey values), else 0
+  std::vector<int> removed_counts_;       // their matches per offset
   std::vector<std::uint8_t> banned_;  // offsets that gave nothing this frame
   static constexpr std::uint8_t kCellUnknown = 0, kCellInactive = 1, kCellActive = 2;
   struct Cell {
