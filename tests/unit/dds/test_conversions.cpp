@@ -12,6 +12,17 @@
 namespace sg::dds {
 namespace {
 
+// The InputError text of `read`, or "accepted".
+template <class F>
+std::string errorText(F read) {
+  try {
+    read();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "accepted";
+}
+
 StereoRig testRig(int width, int height) {
   StereoRig rig;
   rig.focal_px = 700.0;
@@ -228,14 +239,7 @@ TEST(SegmentationConversion, ZeroAreaObstacleBoxIsMalformed) {
   std::vector<sg_idl_Obstacle> obstacles(msg.obstacles._buffer, msg.obstacles._buffer + 1);
   sg_idl_Segmentation m = msg;
   m.obstacles._buffer = obstacles.data();
-  auto message = [&] {
-    try {
-      readSegmentation(m, out);
-    } catch (const InputError& e) {
-      return std::string(e.what());
-    }
-    return std::string("accepted");
-  };
+  auto message = [&] { return errorText([&] { readSegmentation(m, out); }); };
 
   obstacles[0].box.right = obstacles[0].box.left;
   EXPECT_EQ(message(), "Segmentation frame 5: field 'obstacles[0].box' = [20, 10, 20, 35] has zero width "
@@ -333,14 +337,7 @@ TEST(DetectionsConversion, ZeroAreaBoxIsMalformed) {
   std::vector<sg_idl_Detection> bad(msg.detections._buffer, msg.detections._buffer + 2);
   sg_idl_HumanDetections m = msg;
   m.detections._buffer = bad.data();
-  auto message = [&] {
-    try {
-      readDetections(m, out);
-    } catch (const InputError& e) {
-      return std::string(e.what());
-    }
-    return std::string("accepted");
-  };
+  auto message = [&] { return errorText([&] { readDetections(m, out); }); };
   bad[1].box.right = bad[1].box.left;
   EXPECT_EQ(message(), "HumanDetections frame 8: field 'detections[1].box' = [100, 150, 100, 154] has zero "
                        "width (left == right)");
