@@ -268,9 +268,10 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   if (params_.cell_px > 0) {
     const std::size_t cells = static_cast<std::size_t>((cols + params_.cell_px - 1) / params_.cell_px) *
                               static_cast<std::size_t>((rows + params_.cell_px - 1) / params_.cell_px);
-    if (cell_.size() != cells) cell_.assign(cells, Cell{});
-    for (const int k : touched_cells_) cell_[static_cast<std::size_t>(k)] = Cell{};
-    touched_cells_.clear();
+    if (cell_.size() != cells) {  // a new image size; otherwise each candidate resets the cells it touched
+      cell_.assign(cells, Cell{});
+      touched_cells_.clear();
+    }
   }
   const bool ground_known = ground.source != GroundSource::kNone;
   const double background =
@@ -280,8 +281,9 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   // Removing a left pixel takes its matches out of the correlation counts: it matched
   // offset d when the right pixel x - d is a feature within the correlation's grey
   // tolerance. Counting down is exact and far cheaper than recomputing the row.
-  // The fast path collects a row's cleared pixels and counts them with the correlation's
-  // vector kernel (right rows with its zero padding in front).
+  // A row's cleared pixels are collected and counted out together: the fast path with the
+  // correlation's vector kernel (right rows with its zero padding in front), the reference
+  // pixel by pixel.
   const int corr_tol = correlator.params().grey_tolerance;
   const int pad = simd::rightPadding(offsets);
   if (fast_) {
@@ -291,9 +293,9 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       std::memset(rp, 0, static_cast<std::size_t>(pad));
       std::memcpy(rp + pad, right.ptr<std::uint8_t>(y), static_cast<std::size_t>(cols));
     }
-    cleared_.assign(static_cast<std::size_t>(cols), 0);
     removed_counts_.resize(static_cast<std::size_t>(offsets));
   }
+  cleared_.assign(static_cast<std::size_t>(cols), 0);
   auto uncount = [&](int y, int x, int a) {
     int* m = matches.ptr<int>(y);
     const std::uint8_t* r = right.ptr<std::uint8_t>(y);
@@ -303,12 +305,17 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       m[d] -= (b != 0) & (std::abs(a - b) <= corr_tol);
     }
   };
-  auto uncountRow = [&](int y, int xa, int xb) {  // the fast path: cleared_ holds [xa, xb)
-    std::fill(removed_counts_.begin(), removed_counts_.end(), 0);
-    simd::accumulateMatches(cleared_.data(), nullptr, right_padded_.ptr<std::uint8_t>(y) + pad, xa, xb, offsets,
-                            corr_tol, removed_counts_.data());
-    int* m = matches.ptr<int>(y);
-    for (int d = 0; d < offsets; ++d) m[d] -= removed_counts_[static_cast<std::size_t>(d)];
+  auto uncountRow = [&](int y, int xa, int xb) {  // cleared_ holds the row's cleared pixels in [xa, xb)
+    if (fast_) {
+      std::fill(removed_counts_.begin(), removed_counts_.end(), 0);
+      simd::accumulateMatches(cleared_.data(), nullptr, right_padded_.ptr<std::uint8_t>(y) + pad, xa, xb, offsets,
+                              corr_tol, removed_counts_.data());
+      int* m = matches.ptr<int>(y);
+      for (int d = 0; d < offsets; ++d) m[d] -= removed_counts_[static_cast<std::size_t>(d)];
+    } else {
+      for (int x = xa; x < xb; ++x)
+        if (cleared_[static_cast<std::size_t>(x)]) uncount(y, x, cleared_[static_cast<std::size_t>(x)]);
+    }
     std::fill(cleared_.begin() + xa, cleared_.begin() + xb, std::uint8_t{0});
   };
   // Matched pixels of the box, optionally cleared and labelled. At the candidate's offset
@@ -354,19 +361,15 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         ++count;
         last_cleared = x;
         if (clear_label >= 0) {
-          if (fast_) {
-            cleared_[static_cast<std::size_t>(x)] = l[x];
-            if (first_cleared < 0) first_cleared = x;
-          } else {
-            uncount(y, x, l[x]);
-          }
+          cleared_[static_cast<std::size_t>(x)] = l[x];
+          if (first_cleared < 0) first_cleared = x;
           l[x] = 0;
           lab[x] = static_cast<std::uint8_t>(clear_label);
           changed = true;
         }
       }
       if (changed) {
-        if (fast_) uncountRow(y, first_cleared, last_cleared + 1);
+        uncountRow(y, first_cleared, last_cleared + 1);
         changed_rows[static_cast<std::size_t>(y)] = 1;
         median_stale_[static_cast<std::size_t>(y)] = 1;
       }

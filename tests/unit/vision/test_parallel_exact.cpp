@@ -435,6 +435,27 @@ TEST(FastObstacles, WindowMatchRowMatchesTheReferenceForAnyOffsetsWindowAndSpan)
   }
 }
 
+// Workspaces sized for a larger image are reused for a smaller one: the result is
+// that of a fresh segmenter (the obstacle cells, masks and padded rows included).
+TEST(FastObstacles, ASmallerImageAfterALargerOneGivesTheFreshResult) {
+  const std::vector<Pair> all = pairs();
+  ASSERT_GE(all.size(), 2u) << "needs the analytic scene and a real pair";
+  const Pair& small = all[0];
+  const Pair& large = all[1];
+  ASSERT_LT(small.left.total(), large.left.total());
+  FeatureExtractor fx;
+  Segmenter reused, fresh;
+  SegmentationResult first, a, b;
+  segmentPair(fx, reused, large.left, large.right, large.rig, first);
+  ASSERT_FALSE(first.obstacles.empty());
+  reused.reset();  // a new sequence: no ground prior carried over
+  segmentPair(fx, reused, small.left, small.right, small.rig, a);
+  segmentPair(fx, fresh, small.left, small.right, small.rig, b);
+  ASSERT_TRUE(test::sameBits(a.labels, b.labels));
+  ASSERT_EQ(a.obstacles.size(), b.obstacles.size());
+  for (std::size_t k = 0; k < a.obstacles.size(); ++k) EXPECT_EQ(a.obstacles[k].box, b.obstacles[k].box);
+}
+
 TEST(FastObstacles, RowExcessMatchesTheScalarSum) {
   cv::RNG rng(29);
   for (const int n : {1, 7, 8, 9, 64, 128, 131}) {
