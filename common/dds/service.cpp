@@ -30,18 +30,15 @@ int serviceMain(int argc, char** argv, const std::string& stage, const std::func
     log->error("{}", e.what());
     spdlog::shutdown();
     return 2;
-  } catch (const DdsError& e) {
+  } catch (const std::exception& e) {
     // Refused by DDS Security: the stage runs with an identity whose
     // permissions do not grant its topics. Restarting would not help.
-    if (e.notAllowedBySecurity()) {
+    const auto* dds = dynamic_cast<const DdsError*>(&e);
+    if (dds != nullptr && dds->notAllowedBySecurity()) {
       log->error("configuration error: the {} stage is not allowed by DDS Security: {}", stage, e.what());
       spdlog::shutdown();
       return 2;
     }
-    log->critical("internal error: {}", e.what());
-    spdlog::shutdown();
-    return 1;
-  } catch (const std::exception& e) {
     log->critical("internal error: {}", e.what());
     spdlog::shutdown();
     return 1;
