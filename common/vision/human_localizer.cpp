@@ -6,7 +6,11 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
+
 #include "config/errors.hpp"
+#include "vision/parallel_bands.hpp"
 
 namespace sg {
 
@@ -15,6 +19,7 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr int kHogCellPx = 8;  // cell size of both OpenCV people detectors
 constexpr double kNoShape = -5.0;  // HOG margin reported when the box cannot be validated
+constexpr int kMaxBands = 8;       // parallel bands of symmetry axes and of candidate boxes
 
 void requireLess(double lo, double hi, const char* lo_key, const char* hi_key) {
   if (!(lo < hi)) {
@@ -178,6 +183,21 @@ HumanLocalizer::HumanLocalizer(const LocalizerParams& params) : params_(params),
     hog_ = cv::HOGDescriptor(cv::Size(48, 96), cv::Size(16, 16), cv::Size(8, 8), cv::Size(8, 8), 9);
     hog_.setSVMDetector(cv::HOGDescriptor::getDaimlerPeopleDetector());
   }
+  workspace(0);
+}
+
+int HumanLocalizer::bands() const {
+  if (!params_.parallel) return 1;
+  const auto limit = static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  return std::clamp(std::min(limit, tbb::this_task_arena::max_concurrency()), 1, kMaxBands);
+}
+
+HumanLocalizer::BoxWorkspace& HumanLocalizer::workspace(int band) {
+  while (static_cast<int>(workspaces_.size()) <= band) {
+    workspaces_.emplace_back();
+    workspaces_.back().hog = hog_;  // detect() is const, but each band gets its own detector anyway
+  }
+  return workspaces_[static_cast<std::size_t>(band)];
 }
 
 double HumanLocalizer::combinedScore(double symmetry, double shape_score) const {
@@ -264,7 +284,7 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& r
   search.min_aspect = cp.min_aspect;
   search.max_aspect = cp.max_aspect;
   if (reference) scanner_.computeReference(grey, region_weights_, search, sym_scratch_);
-  else scanner_.compute(grey, region_weights_, search, sym_scratch_);
+  else scanner_.compute(grey, region_weights_, search, sym_scratch_, bands());
 
   std::vector<HumanDetection> local_reference;
   std::vector<HumanDetection>& local = reference ? local_reference : local_;
@@ -342,13 +362,24 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& r
 
 bool HumanLocalizer::refineOffset(const cv::Mat& left, const cv::Mat& right, const cv::Rect& box, const cv::Mat& mask,
                                   float& offset_px, float& zncc) {
+  return refineOffset(workspace(0), left, right, box, mask, offset_px, zncc);
+}
+
+float HumanLocalizer::shapeScore(const cv::Mat& left, const cv::Rect2f& box) {
+  return shapeScore(workspace(0), left, box);
+}
+
+bool HumanLocalizer::refineOffset(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& right, const cv::Rect& box,
+                                  const cv::Mat& mask, float& offset_px, float& zncc) const {
   const auto& rp = params_.refine;
+  std::vector<cv::Point>& samples_p = ws.samples_p;
+  std::vector<double>& samples_l = ws.samples_l;
   zncc = -1.0f;
   const int d0 = static_cast<int>(std::lround(offset_px));
   const int dlo = std::max(0, d0 - rp.search_radius_px);
   const int dhi = d0 + rp.search_radius_px;
-  samples_p_.clear();
-  samples_l_.clear();
+  samples_p.clear();
+  samples_l.clear();
   const cv::Rect r = box & cv::Rect(0, 0, left.cols, left.rows);
   for (int y = r.y; y < r.y + r.height; ++y) {
     const auto* l = left.ptr<std::uint8_t>(y);
@@ -357,15 +388,15 @@ bool HumanLocalizer::refineOffset(const cv::Mat& left, const cv::Mat& right, con
       if (m != nullptr && m[x - box.x] == 0) continue;
       // Room for the widest offset and the sub-pixel steps (one extra pixel each side).
       if (x - dhi - 2 < 0 || x - dlo + 2 >= right.cols) continue;
-      samples_p_.emplace_back(x, y);
-      samples_l_.push_back(l[x]);
+      samples_p.emplace_back(x, y);
+      samples_l.push_back(l[x]);
     }
   }
-  const std::size_t n = samples_p_.size();
+  const std::size_t n = samples_p.size();
   if (static_cast<int>(n) < rp.min_pixels) return false;
 
   double sl = 0.0, sll = 0.0;
-  for (double v : samples_l_) {
+  for (double v : samples_l) {
     sl += v;
     sll += v * v;
   }
@@ -376,17 +407,17 @@ bool HumanLocalizer::refineOffset(const cv::Mat& left, const cv::Mat& right, con
   auto znccAt = [&](int d) {
     double sr = 0.0, srr = 0.0, slr = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
-      const double rv = right.at<std::uint8_t>(samples_p_[i].y, samples_p_[i].x - d);
+      const double rv = right.at<std::uint8_t>(samples_p[i].y, samples_p[i].x - d);
       sr += rv;
       srr += rv * rv;
-      slr += rv * samples_l_[i];
+      slr += rv * samples_l[i];
     }
     const double var_r = srr - sr * sr / nd;
     if (var_r <= 1e-6) return -1.0;
     return (slr - sl * sr / nd) / std::sqrt(var_l * var_r);
   };
 
-  std::vector<double>& scores = scores_;
+  std::vector<double>& scores = ws.scores;
   scores.assign(static_cast<std::size_t>(dhi - dlo + 1), 0.0);
   int best = dlo;
   for (int d = dlo; d <= dhi; ++d) {
@@ -410,10 +441,10 @@ bool HumanLocalizer::refineOffset(const cv::Mat& left, const cv::Mat& right, con
   for (int it = 0; it < rp.iterations; ++it) {
     double sr = 0.0, srr = 0.0, slr = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
-      const double rv = sampleRow(right.ptr<std::uint8_t>(samples_p_[i].y), samples_p_[i].x - d);
+      const double rv = sampleRow(right.ptr<std::uint8_t>(samples_p[i].y), samples_p[i].x - d);
       sr += rv;
       srr += rv * rv;
-      slr += rv * samples_l_[i];
+      slr += rv * samples_l[i];
     }
     const double var_r = srr - sr * sr / nd;
     if (var_r <= 1e-6) break;
@@ -421,11 +452,11 @@ bool HumanLocalizer::refineOffset(const cv::Mat& left, const cv::Mat& right, con
     const double b = (sl - g * sr) / nd;
     double jr = 0.0, jj = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
-      const auto* row = right.ptr<std::uint8_t>(samples_p_[i].y);
-      const double xs = samples_p_[i].x - d;
+      const auto* row = right.ptr<std::uint8_t>(samples_p[i].y);
+      const double xs = samples_p[i].x - d;
       const double rv = sampleRow(row, xs);
       const double grad = 0.5 * (sampleRow(row, xs + 1.0) - sampleRow(row, xs - 1.0));
-      const double res = samples_l_[i] - g * rv - b;
+      const double res = samples_l[i] - g * rv - b;
       const double j = g * grad;
       jr += j * res;
       jj += j * j;
@@ -443,10 +474,10 @@ bool HumanLocalizer::refineOffset(const cv::Mat& left, const cv::Mat& right, con
   // integer offsets half a pixel off the true one.
   double sr = 0.0, srr = 0.0, slr = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
-    const double rv = sampleRow(right.ptr<std::uint8_t>(samples_p_[i].y), samples_p_[i].x - d);
+    const double rv = sampleRow(right.ptr<std::uint8_t>(samples_p[i].y), samples_p[i].x - d);
     sr += rv;
     srr += rv * rv;
-    slr += rv * samples_l_[i];
+    slr += rv * samples_l[i];
   }
   const double var_r = srr - sr * sr / nd;
   const double final_zncc = var_r > 1e-6 ? (slr - sl * sr / nd) / std::sqrt(var_l * var_r) : -1.0;
@@ -456,9 +487,9 @@ bool HumanLocalizer::refineOffset(const cv::Mat& left, const cv::Mat& right, con
   return true;
 }
 
-float HumanLocalizer::shapeScore(const cv::Mat& left, const cv::Rect2f& box) {
+float HumanLocalizer::shapeScore(BoxWorkspace& ws, const cv::Mat& left, const cv::Rect2f& box) const {
   if (box.height < 4.0f || box.width < 1.0f) return static_cast<float>(kNoShape);
-  const cv::Size win = hog_.winSize;
+  const cv::Size win = ws.hog.winSize;
   const int shift = params_.shape.shift_cells * kHogCellPx;
   const cv::Size canvas(win.width + 2 * shift, win.height + 2 * shift);
   // Image pixels per canvas pixel: the person fills person_height_fraction of the window.
@@ -472,13 +503,90 @@ float HumanLocalizer::shapeScore(const cv::Mat& left, const cv::Rect2f& box) {
   const cv::Rect image(0, 0, left.cols, left.rows);
   const cv::Rect inside = crop & image;
   if (inside.area() <= 0) return static_cast<float>(kNoShape);
-  cv::Mat patch = scratchMat(patch_store_, crop.height, crop.width, CV_8UC1);
+  cv::Mat patch = scratchMat(ws.patch_store, crop.height, crop.width, CV_8UC1);
   cv::copyMakeBorder(left(inside), patch, inside.y - crop.y, crop.y + crop.height - inside.y - inside.height,
                      inside.x - crop.x, crop.x + crop.width - inside.x - inside.width, cv::BORDER_REPLICATE);
-  cv::resize(patch, hog_canvas_, canvas, 0, 0, s > 1.0 ? cv::INTER_AREA : cv::INTER_LINEAR);
-  hog_.detect(hog_canvas_, hog_found_, hog_weights_, -1e9, cv::Size(kHogCellPx, kHogCellPx), cv::Size(0, 0));
-  if (hog_weights_.empty()) return static_cast<float>(kNoShape);
-  return static_cast<float>(*std::max_element(hog_weights_.begin(), hog_weights_.end()));
+  cv::resize(patch, ws.hog_canvas, canvas, 0, 0, s > 1.0 ? cv::INTER_AREA : cv::INTER_LINEAR);
+  ws.hog.detect(ws.hog_canvas, ws.hog_found, ws.hog_weights, -1e9, cv::Size(kHogCellPx, kHogCellPx), cv::Size(0, 0));
+  if (ws.hog_weights.empty()) return static_cast<float>(kNoShape);
+  return static_cast<float>(*std::max_element(ws.hog_weights.begin(), ws.hog_weights.end()));
+}
+
+bool HumanLocalizer::validateCandidate(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& right,
+                                       const StereoRig& rig, const SegmentationResult& segmentation, HumanDetection& h,
+                                       bool reference) const {
+  const cv::Rect pixels = toPixels(h.box, left.size());
+  if (pixels.area() <= 0) return false;
+  const bool labelled = !segmentation.labels.empty() && segmentation.labels.size() == left.size();
+  // Step 3: match the box's cluster edges (all its edges when too few) in the right image.
+  cv::Mat box_mask, box_weights;
+  if (reference) {
+    cv::Mat labels_mask;
+    if (labelled) cv::compare(segmentation.labels(pixels), h.cluster_label, labels_mask, cv::CMP_EQ);
+    scanner_.edgeWeightsReference(left(pixels), labels_mask, box_weights);
+    cv::compare(box_weights, 0.5, box_mask, cv::CMP_GE);
+    if (cv::countNonZero(box_mask) < params_.refine.min_pixels) cv::compare(box_weights, 0.0, box_mask, cv::CMP_GT);
+  } else {
+    cv::Mat labels_mask;
+    if (labelled) {
+      labels_mask = scratchMat(ws.labels_mask_store, pixels.height, pixels.width, CV_8UC1);
+      labelMask(segmentation.labels(pixels), h.cluster_label, labels_mask);
+    }
+    box_weights = scratchMat(ws.box_weights_store, pixels.height, pixels.width, CV_32FC1);
+    scanner_.edgeWeights(left(pixels), labels_mask, box_weights);
+    box_mask = scratchMat(ws.box_mask_store, pixels.height, pixels.width, CV_8UC1);
+    // box_mask = weights >= 0.5 (255/0), or weights > 0 when that leaves too few pixels.
+    int strong = 0;
+    for (int y = 0; y < pixels.height; ++y) {
+      const float* w = box_weights.ptr<float>(y);
+      auto* m = box_mask.ptr<std::uint8_t>(y);
+      for (int x = 0; x < pixels.width; ++x) {
+        m[x] = w[x] >= 0.5f ? 255 : 0;
+        strong += m[x] != 0 ? 1 : 0;
+      }
+    }
+    if (strong < params_.refine.min_pixels) {
+      for (int y = 0; y < pixels.height; ++y) {
+        const float* w = box_weights.ptr<float>(y);
+        auto* m = box_mask.ptr<std::uint8_t>(y);
+        for (int x = 0; x < pixels.width; ++x) m[x] = w[x] > 0.0f ? 255 : 0;
+      }
+    }
+  }
+  float offset = h.offset_px;
+  float zncc = 0.0f;
+  const bool trusted = refineOffset(ws, left, right, pixels, box_mask, offset, zncc);
+  h.offset_px = offset;
+  h.match_quality = zncc;
+  const double sigma_d = trusted ? params_.refine.offset_sigma_px : params_.refine.fallback_sigma_px;
+
+  // Step 4: the feet on the ground line at the refined offset (paper, figure 1).
+  const double box_top = h.box.y;
+  const double box_height = h.box.height;
+  const double box_bottom = box_top + box_height;
+  const double contact = groundRowForOffset(segmentation.ground, rig, static_cast<double>(offset), box_bottom);
+  if (std::isfinite(contact) && contact > box_top + 0.5 * box_height && contact < box_bottom + 0.5 * box_height) {
+    const double bottom = std::min(contact, static_cast<double>(left.rows));
+    h.box.height = static_cast<float>(bottom - box_top);
+    h.ground_contact_row = static_cast<int>(std::lround(contact));
+  } else {
+    h.ground_contact_row = -1;
+  }
+
+  const double z = rig.depthFromOffset(static_cast<double>(offset));
+  h.distance_m = static_cast<float>(z);
+  h.distance_sigma_m = static_cast<float>(z * z / (rig.focal_px * rig.baseline_m) * sigma_d);
+  const double foot_row = h.ground_contact_row >= 0 ? contact : static_cast<double>(h.box.y + h.box.height);
+  const double centre_col = static_cast<double>(h.box.x) + 0.5 * static_cast<double>(h.box.width);
+  const Eigen::Vector3d p = rig.pointFromPixel(centre_col, foot_row, static_cast<double>(offset));
+  h.position_m = p.cast<float>();
+
+  // Step 5: shape validation and the calibrated score.
+  h.shape_score = params_.shape.enabled ? shapeScore(ws, left, h.box) : 0.0f;
+  h.score = static_cast<float>(combinedScore(static_cast<double>(h.symmetry), static_cast<double>(h.shape_score)));
+  if (static_cast<double>(h.score) < params_.score.min_score) return false;
+  const cv::Rect image(0, 0, left.cols, left.rows);
+  return (h.box & cv::Rect2f(image)).area() > 0.0f;
 }
 
 void HumanLocalizer::computeImpl(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
@@ -495,80 +603,24 @@ void HumanLocalizer::computeImpl(const cv::Mat& left, const cv::Mat& right, cons
   for (const auto& cluster : segmentation.obstacles) candidatesInCluster(left, rig, segmentation, cluster, candidates_, reference);
   // Duplicates are suppressed after scoring, so that the better-framed of two overlapping boxes wins.
 
-  const cv::Rect image(0, 0, left.cols, left.rows);
-  cv::Mat box_mask, box_weights;
-  const bool labelled = !segmentation.labels.empty() && segmentation.labels.size() == left.size();
-  for (auto h : candidates_) {
-    const cv::Rect pixels = toPixels(h.box, left.size());
-    if (pixels.area() <= 0) continue;
-    // Step 3: match the box's cluster edges (all its edges when too few) in the right image.
-    if (reference) {
-      cv::Mat labels_mask;
-      if (labelled) cv::compare(segmentation.labels(pixels), h.cluster_label, labels_mask, cv::CMP_EQ);
-      scanner_.edgeWeightsReference(left(pixels), labels_mask, box_weights);
-      cv::compare(box_weights, 0.5, box_mask, cv::CMP_GE);
-      if (cv::countNonZero(box_mask) < params_.refine.min_pixels) cv::compare(box_weights, 0.0, box_mask, cv::CMP_GT);
-    } else {
-      cv::Mat labels_mask;
-      if (labelled) {
-        labels_mask = scratchMat(labels_mask_store_, pixels.height, pixels.width, CV_8UC1);
-        labelMask(segmentation.labels(pixels), h.cluster_label, labels_mask);
-      }
-      box_weights = scratchMat(box_weights_store_, pixels.height, pixels.width, CV_32FC1);
-      scanner_.edgeWeights(left(pixels), labels_mask, box_weights);
-      box_mask = scratchMat(box_mask_store_, pixels.height, pixels.width, CV_8UC1);
-      // box_mask = weights >= 0.5 (255/0), or weights > 0 when that leaves too few pixels.
-      int strong = 0;
-      for (int y = 0; y < pixels.height; ++y) {
-        const float* w = box_weights.ptr<float>(y);
-        auto* m = box_mask.ptr<std::uint8_t>(y);
-        for (int x = 0; x < pixels.width; ++x) {
-          m[x] = w[x] >= 0.5f ? 255 : 0;
-          strong += m[x] != 0 ? 1 : 0;
-        }
-      }
-      if (strong < params_.refine.min_pixels) {
-        for (int y = 0; y < pixels.height; ++y) {
-          const float* w = box_weights.ptr<float>(y);
-          auto* m = box_mask.ptr<std::uint8_t>(y);
-          for (int x = 0; x < pixels.width; ++x) m[x] = w[x] > 0.0f ? 255 : 0;
-        }
-      }
+  // Steps 3-5 for every candidate; band b takes candidates b, b + bands, ...
+  // Each candidate is independent of the others, so the kept ones, collected
+  // in candidate order, are the same for any number of bands.
+  const int n = static_cast<int>(candidates_.size());
+  const int bands = reference ? 1 : std::min(this->bands(), n);
+  kept_.assign(static_cast<std::size_t>(n), 0);
+  for (int b = 0; b < bands; ++b) workspace(b);  // grown before the bands start
+  auto band = [&](int b) {
+    BoxWorkspace& ws = workspaces_[static_cast<std::size_t>(b)];
+    for (int i = b; i < n; i += bands) {
+      auto& h = candidates_[static_cast<std::size_t>(i)];
+      kept_[static_cast<std::size_t>(i)] = validateCandidate(ws, left, right, rig, segmentation, h, reference) ? 1 : 0;
     }
-    float offset = h.offset_px;
-    float zncc = 0.0f;
-    const bool trusted = refineOffset(left, right, pixels, box_mask, offset, zncc);
-    h.offset_px = offset;
-    h.match_quality = zncc;
-    const double sigma_d = trusted ? params_.refine.offset_sigma_px : params_.refine.fallback_sigma_px;
-
-    // Step 4: the feet on the ground line at the refined offset (paper, figure 1).
-    const double box_top = h.box.y;
-    const double box_height = h.box.height;
-    const double box_bottom = box_top + box_height;
-    const double contact = groundRowForOffset(segmentation.ground, rig, static_cast<double>(offset), box_bottom);
-    if (std::isfinite(contact) && contact > box_top + 0.5 * box_height && contact < box_bottom + 0.5 * box_height) {
-      const double bottom = std::min(contact, static_cast<double>(left.rows));
-      h.box.height = static_cast<float>(bottom - box_top);
-      h.ground_contact_row = static_cast<int>(std::lround(contact));
-    } else {
-      h.ground_contact_row = -1;
-    }
-
-    const double z = rig.depthFromOffset(static_cast<double>(offset));
-    h.distance_m = static_cast<float>(z);
-    h.distance_sigma_m = static_cast<float>(z * z / (rig.focal_px * rig.baseline_m) * sigma_d);
-    const double foot_row = h.ground_contact_row >= 0 ? contact : static_cast<double>(h.box.y + h.box.height);
-    const double centre_col = static_cast<double>(h.box.x) + 0.5 * static_cast<double>(h.box.width);
-    const Eigen::Vector3d p = rig.pointFromPixel(centre_col, foot_row, static_cast<double>(offset));
-    h.position_m = p.cast<float>();
-
-    // Step 5: shape validation and the calibrated score.
-    h.shape_score = params_.shape.enabled ? shapeScore(left, h.box) : 0.0f;
-    h.score = static_cast<float>(combinedScore(static_cast<double>(h.symmetry), static_cast<double>(h.shape_score)));
-    if (static_cast<double>(h.score) < params_.score.min_score) continue;
-    if ((h.box & cv::Rect2f(image)).area() <= 0.0f) continue;
-    out.push_back(h);
+  };
+  if (bands > 1) forEachBand(bands, band);
+  else if (n > 0) band(0);
+  for (int i = 0; i < n; ++i) {
+    if (kept_[static_cast<std::size_t>(i)] != 0) out.push_back(candidates_[static_cast<std::size_t>(i)]);
   }
   if (reference) suppressDuplicates(out, params_.filters.nms_iou, params_.filters.nms_containment);
   else suppressDuplicatesInPlace(out, params_.filters.nms_iou, params_.filters.nms_containment);

@@ -16,7 +16,9 @@
 //  5. shape validation: OpenCV's HOG people detector on the refined box,
 //     combined with the symmetry into one calibrated score in [0, 1].
 //
-// Not re-entrant: one localizer per thread; it keeps its scratch across frames.
+// Not re-entrant: one localizer per thread; it keeps its scratch across frames
+// (compute() runs its own parallel bands).
+#include <cstdint>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -136,6 +138,7 @@ struct ScoreParams {
 };
 
 struct LocalizerParams {
+  bool parallel = true;  // symmetry axes and candidate boxes in parallel bands (TBB); identical results
   SymmetryParams symmetry;
   CandidateParams candidates;
   FilterParams filters;
@@ -145,6 +148,7 @@ struct LocalizerParams {
 
   template <class V>
   void visit(V& v) {
+    v.field("parallel", parallel, 0, 1, "", "scan symmetry axes and validate candidate boxes in parallel bands");
     v.group("symmetry", symmetry);
     v.group("candidates", candidates);
     v.group("filters", filters);
@@ -193,6 +197,30 @@ class HumanLocalizer {
   const LocalizerParams& params() const { return params_; }
 
  private:
+  // Scratch of the steps applied to one candidate box (3-5); one per band of
+  // candidates, so that bands run in parallel.
+  struct BoxWorkspace {
+    cv::HOGDescriptor hog;
+    cv::Mat hog_canvas;
+    std::vector<cv::Point> hog_found;
+    std::vector<double> hog_weights;
+    std::vector<double> samples_l;
+    std::vector<cv::Point> samples_p;
+    std::vector<double> scores;
+    // Storage behind the per-box headers; it only grows.
+    std::vector<double> labels_mask_store, box_weights_store, box_mask_store, patch_store;
+  };
+
+  // Bands to use now: 1 unless params.parallel, else TBB's parallelism limit (at most kMaxBands).
+  int bands() const;
+  BoxWorkspace& workspace(int band);
+  bool refineOffset(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& right, const cv::Rect& box,
+                    const cv::Mat& mask, float& offset_px, float& zncc) const;
+  float shapeScore(BoxWorkspace& ws, const cv::Mat& left, const cv::Rect2f& box) const;
+  // Steps 3-5 on candidate h (refined offset, ground contact, distance, shape
+  // score); false when it is dropped.
+  bool validateCandidate(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
+                         const SegmentationResult& segmentation, HumanDetection& h, bool reference) const;
   void computeImpl(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
                    const SegmentationResult& segmentation, std::vector<HumanDetection>& out, bool reference);
   void candidatesInCluster(const cv::Mat& left, const StereoRig& rig, const SegmentationResult& segmentation,
@@ -201,20 +229,16 @@ class HumanLocalizer {
 
   LocalizerParams params_;
   SymmetryScanner scanner_;
-  cv::HOGDescriptor hog_;
+  cv::HOGDescriptor hog_;  // the configured people detector, copied into each workspace
   std::vector<SymmetryCandidate> sym_scratch_;
   std::vector<HumanDetection> candidates_;
   std::vector<HumanDetection> extended_;
-  cv::Mat region_mask_, region_weights_, hog_canvas_;
-  std::vector<cv::Point> hog_found_;
-  std::vector<double> hog_weights_;
-  std::vector<double> samples_l_;
-  std::vector<cv::Point> samples_p_;
-  std::vector<double> scores_;
+  std::vector<std::uint8_t> kept_;  // per candidate: survived steps 3-5
+  cv::Mat region_mask_, region_weights_;
   std::vector<HumanDetection> local_;
-  // Storage behind the per-region and per-box headers of the fast path; it only grows.
-  std::vector<double> region_mask_store_, region_weights_store_, labels_mask_store_, box_weights_store_,
-      box_mask_store_, patch_store_;
+  std::vector<BoxWorkspace> workspaces_;  // workspace 0 also serves the reference and the public steps
+  // Storage behind the per-region headers of the fast path; it only grows.
+  std::vector<double> region_mask_store_, region_weights_store_;
 };
 
 // Greedy non-maximum suppression by score (keeps the higher score of two

@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "config/errors.hpp"
+#include "vision/parallel_bands.hpp"
 
 namespace sg {
 
@@ -199,7 +200,7 @@ void SymmetryScanner::prepareFast(const cv::Mat& grey, const cv::Mat& weights) {
   }
 }
 
-void SymmetryScanner::buildAxisFast(int axis, int max_half, int rows) {
+void SymmetryScanner::buildAxisFast(AxisTables& t, int axis, int max_half, int rows) const {
   // Each table is a 2-D prefix sum over half-widths k and rows r:
   //   t(k, r + 1) = ((t(k, r) + t(k - 1, r + 1)) - t(k - 1, r)) + v(k, r).
   // Only two of the reference's seven are built: the sums of a, b, a^2, b^2 over
@@ -215,11 +216,11 @@ void SymmetryScanner::buildAxisFast(int axis, int max_half, int rows) {
   const int kmax = max_half;
   const int width = kmax + 1;
   const int skew_rows = rows + kmax + 2;
-  pe_ = scratch(pe_store_, skew_rows, width, CV_64FC1);
-  pm_ = scratch(pm_store_, skew_rows, width, CV_64FC1);
-  for (cv::Mat* t : {&pe_, &pm_}) t->rowRange(0, 2).setTo(0.0);
-  if (diagonal_.size() < 2 * static_cast<std::size_t>(width)) diagonal_.resize(2 * static_cast<std::size_t>(width));
-  double* __restrict ve = diagonal_.data();
+  t.pe = scratch(t.pe_store, skew_rows, width, CV_64FC1);
+  t.pm = scratch(t.pm_store, skew_rows, width, CV_64FC1);
+  for (cv::Mat* table : {&t.pe, &t.pm}) table->rowRange(0, 2).setTo(0.0);
+  if (t.diagonal.size() < 2 * static_cast<std::size_t>(width)) t.diagonal.resize(2 * static_cast<std::size_t>(width));
+  double* __restrict ve = t.diagonal.data();
   double* __restrict vm = ve + width;
   const float* w0 = weights_.ptr<float>(0);
   const float* m0 = mirror_.ptr<float>(0);
@@ -244,12 +245,12 @@ void SymmetryScanner::buildAxisFast(int axis, int max_half, int rows) {
       ve[k] = 0.5 * (wl + wr);
       vm[k] = 0.5 * (wl * mr + ml * wr);
     }
-    double* __restrict e = pe_.ptr<double>(s + 1);
-    const double* __restrict e1 = pe_.ptr<double>(s);
-    const double* __restrict e2 = pe_.ptr<double>(s - 1);
-    double* __restrict mm = pm_.ptr<double>(s + 1);
-    const double* __restrict m1 = pm_.ptr<double>(s);
-    const double* __restrict m2 = pm_.ptr<double>(s - 1);
+    double* __restrict e = t.pe.ptr<double>(s + 1);
+    const double* __restrict e1 = t.pe.ptr<double>(s);
+    const double* __restrict e2 = t.pe.ptr<double>(s - 1);
+    double* __restrict mm = t.pm.ptr<double>(s + 1);
+    const double* __restrict m1 = t.pm.ptr<double>(s);
+    const double* __restrict m2 = t.pm.ptr<double>(s - 1);
     e[0] = mm[0] = 0.0;
     // Two half-widths per vector (lane-wise IEEE operations, the same as the scalar ones).
     typedef double F64x2 __attribute__((vector_size(16)));
@@ -271,8 +272,8 @@ void SymmetryScanner::buildAxisFast(int axis, int max_half, int rows) {
   }
   // Mirrored grey products: exact integers (at most 255^2 per pixel, 255^2 x rows per
   // column), summed down each column pair j as 32-bit integers, row by row.
-  ab_prefix_.resize(static_cast<std::size_t>(rows + 1) * static_cast<std::size_t>(width));
-  std::int32_t* prev = ab_prefix_.data();
+  t.ab_prefix.resize(static_cast<std::size_t>(rows + 1) * static_cast<std::size_t>(width));
+  std::int32_t* prev = t.ab_prefix.data();
   for (int j = 0; j <= kmax; ++j) prev[j] = 0;
   for (int r = 0; r < rows; ++r) {
     const std::uint8_t* g = g0 + static_cast<std::ptrdiff_t>(r) * gstep + axis;
@@ -337,24 +338,25 @@ SymmetryScanner::BoxSums SymmetryScanner::referenceSums(int half, int top, int b
   return s;
 }
 
-SymmetryScanner::BoxSums SymmetryScanner::fastSums(int axis, int half, int top, int bottom) const {
+SymmetryScanner::BoxSums SymmetryScanner::fastSums(const AxisTables& t, int axis, int half, int top,
+                                                   int bottom) const {
   // Columns axis - half .. axis - 1 and axis + 1 .. axis + half: the reference's
   // tables summed the same exact integers.
   // Skewed tables (buildAxisFast): t(k, r) is row k + r + 1, column k.
-  auto skewSum = [&](const cv::Mat& t) {
-    return t.at<double>(half + bottom + 2, half) - t.at<double>(half + top + 1, half);
+  auto skewSum = [&](const cv::Mat& table) {
+    return table.at<double>(half + bottom + 2, half) - table.at<double>(half + top + 1, half);
   };
   BoxSums s;
-  s.e = skewSum(pe_);
-  s.m = skewSum(pm_);
+  s.e = skewSum(t.pe);
+  s.m = skewSum(t.pm);
   s.a = boxSum(grey_integral_, top, bottom, axis - half, axis - 1);
   s.b = boxSum(grey_integral_, top, bottom, axis + 1, axis + half);
   s.aa = boxSum(grey_sq_integral_, top, bottom, axis - half, axis - 1);
   s.bb = boxSum(grey_sq_integral_, top, bottom, axis + 1, axis + half);
   // Mirrored grey product: column sums over [top, bottom] of the pairs j <= half.
-  const std::size_t width = static_cast<std::size_t>(pe_.cols);
-  const std::int32_t* below = ab_prefix_.data() + static_cast<std::size_t>(bottom + 1) * width;
-  const std::int32_t* above = ab_prefix_.data() + static_cast<std::size_t>(top) * width;
+  const std::size_t width = static_cast<std::size_t>(t.pe.cols);
+  const std::int32_t* below = t.ab_prefix.data() + static_cast<std::size_t>(bottom + 1) * width;
+  const std::int32_t* above = t.ab_prefix.data() + static_cast<std::size_t>(top) * width;
   std::int64_t ab = 0;
   for (int j = 1; j <= half; ++j) ab += static_cast<std::int64_t>(below[j]) - static_cast<std::int64_t>(above[j]);
   s.ab = static_cast<double>(ab);
@@ -412,21 +414,53 @@ SymmetryCandidate SymmetryScanner::evaluate(int axis, int half, int top, int bot
 }
 
 void SymmetryScanner::compute(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
-                              std::vector<SymmetryCandidate>& out) {
-  computeImpl(grey, weights, search, out, false);
+                              std::vector<SymmetryCandidate>& out, int bands) {
+  computeImpl(grey, weights, search, out, false, std::max(1, bands));
 }
 
 void SymmetryScanner::computeReference(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
                                        std::vector<SymmetryCandidate>& out) {
-  computeImpl(grey, weights, search, out, true);
+  computeImpl(grey, weights, search, out, true, 1);
+}
+
+bool SymmetryScanner::scanAxisFast(AxisTables& t, int axis, const SymmetrySearch& search, int bottom,
+                                   SymmetryCandidate& best) const {
+  const int kmin = std::max(1, search.min_half_width_px);
+  const int step = params_.width_step_px;
+  const int kmax = std::min({search.max_half_width_px, axis, weights_.cols - 1 - axis});
+  if (kmax < kmin) return false;
+  // The box top of every width, and which widths fit the height and aspect limits.
+  t.tops.assign(static_cast<std::size_t>((kmax - kmin) / step + 1), -1);
+  int widest = -1;
+  for (int k = kmin, i = 0; k <= kmax; k += step, ++i) {
+    const int top = findTop(axis - k, axis + k, bottom);
+    const int height = bottom - top + 1;
+    if (height < search.min_height_px || height > search.max_height_px) continue;
+    const double aspect = static_cast<double>(height) / (2 * k + 1);
+    if (aspect < search.min_aspect || aspect > search.max_aspect) continue;
+    t.tops[static_cast<std::size_t>(i)] = top;
+    widest = k;
+  }
+  if (widest < 0) return false;  // no admissible box on this axis: no tables
+  buildAxisFast(t, axis, widest, bottom + 1);
+  bool found = false;
+  for (int k = kmin, i = 0; k <= widest; k += step, ++i) {
+    const int top = t.tops[static_cast<std::size_t>(i)];
+    if (top < 0) continue;
+    const SymmetryCandidate c = evaluate(axis, k, top, bottom, fastSums(t, axis, k, top, bottom));
+    if (!found || c.score > best.score) {
+      best = c;
+      found = true;
+    }
+  }
+  return found;
 }
 
 void SymmetryScanner::computeImpl(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
-                                  std::vector<SymmetryCandidate>& out, bool reference) {
+                                  std::vector<SymmetryCandidate>& out, bool reference, int bands) {
   out.clear();
   if (reference) prepare(grey, weights);
   else prepareFast(grey, weights);
-  // Box tops of the widths of one axis are found before its tables are built.
   grey_rows_ = grey.ptr<std::uint8_t>(0);
   grey_step_ = grey.step[0];
   const int cols = grey.cols;
@@ -458,35 +492,26 @@ void SymmetryScanner::computeImpl(const cv::Mat& grey, const cv::Mat& weights, c
     }
     return;
   }
-  for (int axis = kmin; axis + kmin < cols; axis += params_.axis_step_px) {
-    const int kmax = std::min({search.max_half_width_px, axis, cols - 1 - axis});
-    if (kmax < kmin) continue;
-    // The box top of every width, and which widths fit the height and aspect limits.
-    tops_.assign(static_cast<std::size_t>((kmax - kmin) / step + 1), -1);
-    int widest = -1;
-    for (int k = kmin, i = 0; k <= kmax; k += step, ++i) {
-      const int top = findTop(axis - k, axis + k, bottom);
-      const int height = bottom - top + 1;
-      if (height < search.min_height_px || height > search.max_height_px) continue;
-      const double aspect = static_cast<double>(height) / (2 * k + 1);
-      if (aspect < search.min_aspect || aspect > search.max_aspect) continue;
-      tops_[static_cast<std::size_t>(i)] = top;
-      widest = k;
+  // Axis i is column kmin + i * axis_step_px; band b takes the axes i = b, b + bands, ...
+  // (neighbouring axes cost about the same, so the bands are balanced).
+  const int axes = kmin < cols - kmin ? (cols - kmin - kmin - 1) / params_.axis_step_px + 1 : 0;
+  if (axes <= 0) return;
+  bands = std::min(bands, axes);
+  if (static_cast<int>(bands_.size()) < bands) bands_.resize(static_cast<std::size_t>(bands));
+  axis_best_.resize(static_cast<std::size_t>(axes));
+  axis_found_.assign(static_cast<std::size_t>(axes), 0);
+  auto band = [&](int b) {
+    AxisTables& tables = bands_[static_cast<std::size_t>(b)];
+    for (int i = b; i < axes; i += bands) {
+      const auto slot = static_cast<std::size_t>(i);
+      const int axis = kmin + i * params_.axis_step_px;
+      axis_found_[slot] = scanAxisFast(tables, axis, search, bottom, axis_best_[slot]) ? 1 : 0;
     }
-    if (widest < 0) continue;  // no admissible box on this axis
-    buildAxisFast(axis, widest, rows);
-    SymmetryCandidate best;
-    bool found = false;
-    for (int k = kmin, i = 0; k <= widest; k += step, ++i) {
-      const int top = tops_[static_cast<std::size_t>(i)];
-      if (top < 0) continue;
-      const SymmetryCandidate c = evaluate(axis, k, top, bottom, fastSums(axis, k, top, bottom));
-      if (!found || c.score > best.score) {
-        best = c;
-        found = true;
-      }
-    }
-    if (found) out.push_back(best);
+  };
+  if (bands == 1) band(0);
+  else forEachBand(bands, band);
+  for (int i = 0; i < axes; ++i) {
+    if (axis_found_[static_cast<std::size_t>(i)] != 0) out.push_back(axis_best_[static_cast<std::size_t>(i)]);
   }
 }
 

@@ -17,7 +17,8 @@
 // The box top is not searched: it is the row where the edge weight of the
 // stripe starts (top_edge_fraction of the stripe's weight lies above it).
 //
-// Not re-entrant: one scanner per thread; it keeps its scratch across calls.
+// Not re-entrant: one scanner per thread; it keeps its scratch across calls
+// (compute() runs its own bands of axes in parallel).
 #include <cstdint>
 #include <vector>
 
@@ -102,8 +103,12 @@ class SymmetryScanner {
   // with the reference's floating-point operations in the reference's order.
   // Scratch is kept across calls (no allocation once it has grown to the
   // largest region).
+  //
+  // bands > 1: the axes are dealt round-robin to that many bands, which run in
+  // parallel (forEachBand), each with its own tables; the candidates come out in
+  // axis order, identical for every number of bands.
   void compute(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
-               std::vector<SymmetryCandidate>& out);
+               std::vector<SymmetryCandidate>& out, int bands = 1);
 
   // Same with the serial reference tables (one dependent chain per table, every
   // half-width of every axis); bit-identical to compute().
@@ -123,14 +128,26 @@ class SymmetryScanner {
     double a = 0.0, b = 0.0, aa = 0.0, bb = 0.0, ab = 0.0;  // grey left/right halves
   };
 
+  // Per-axis tables of the fast path (one set per band of axes), reused across calls.
+  struct AxisTables {
+    // pe, pm: the two edge tables, skewed: (rows+max_half+2) x (max_half+1), t(k, r) at row k + r + 1, column k.
+    cv::Mat pe, pm;
+    std::vector<double> pe_store, pm_store;
+    std::vector<double> diagonal;          // one anti-diagonal of the two edge table increments
+    std::vector<std::int32_t> ab_prefix;   // (rows+1) x (max_half+1): per pair j, sum of a * b over rows < r
+    std::vector<int> tops;                 // box top per half-width of the current axis (-1: not admissible)
+  };
+
   void prepare(const cv::Mat& grey, const cv::Mat& weights);
   void prepareFast(const cv::Mat& grey, const cv::Mat& weights);
   void computeImpl(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
-                   std::vector<SymmetryCandidate>& out, bool reference);
-  void buildAxisFast(int axis, int max_half, int rows);
+                   std::vector<SymmetryCandidate>& out, bool reference, int bands);
+  // Best candidate of one axis (fast path); false when no width is admissible there.
+  bool scanAxisFast(AxisTables& t, int axis, const SymmetrySearch& search, int bottom, SymmetryCandidate& best) const;
+  void buildAxisFast(AxisTables& t, int axis, int max_half, int rows) const;
   void buildAxisReference(int axis, int max_half, int rows);
   BoxSums referenceSums(int half, int top, int bottom) const;
-  BoxSums fastSums(int axis, int half, int top, int bottom) const;
+  BoxSums fastSums(const AxisTables& t, int axis, int half, int top, int bottom) const;
   SymmetryCandidate evaluate(int axis, int half, int top, int bottom, const BoxSums& sums) const;
   int findTop(int x0, int x1, int bottom) const;
   // A CV_64F/CV_32F/CV_32S header of exactly rows x cols over `storage`, which only grows.
@@ -144,19 +161,16 @@ class SymmetryScanner {
   cv::Mat mirror_integral_;
   cv::Mat grey_integral_, grey_sq_integral_;
   cv::Mat col_nonzero_;   // CV_32S (rows+1) x cols: per column, count of edge pixels above row
-  // Per-axis prefix tables, (max_half+1) x (rows+1), summed over j <= k and rows < r
-  // (the reference builds all seven; the fast path pe_ and pm_ only, stored
-  // skewed: (rows+max_half+2) x (max_half+1), t(k, r) at row k + r + 1, column k).
+  // Per-axis prefix tables of the reference, (max_half+1) x (rows+1), summed over j <= k and rows < r.
   cv::Mat pe_, pm_, pa_, pb_, paa_, pbb_, pab_;
   cv::Mat grey_u8_;  // the region's grey levels (reference)
   // Fast path storage behind the headers above, reused across calls.
   std::vector<double> weights_store_, mirror_store_, wint_store_, mint_store_, gint_store_, gsq_store_, colnz_store_;
-  std::vector<double> pe_store_, pm_store_;
-  std::vector<double> diagonal_;  // one anti-diagonal of the two edge table increments
-  std::vector<std::int32_t> ab_prefix_;  // (rows+1) x (max_half+1): per pair j, sum of a * b over rows < r
-  std::vector<int> tops_;
+  std::vector<AxisTables> bands_;                // one per band of axes
+  std::vector<SymmetryCandidate> axis_best_;     // per axis index: its best candidate ...
+  std::vector<std::uint8_t> axis_found_;         // ... when it has one
   const std::uint8_t* grey_rows_ = nullptr;  // the region of the current call (row 0) and its row step
-  std::size_t grey_step_ = 0;  // box top per half-width of the current axis (-1: not admissible)
+  std::size_t grey_step_ = 0;
 };
 
 }  // namespace sg

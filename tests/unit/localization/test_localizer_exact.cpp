@@ -1,11 +1,13 @@
 // The localizer's fast path (reused scratch, integer Sobel, symmetry tables only
-// where a box is admissible, in-place duplicate suppression) gives bit-identical
-// detections to its serial reference, on the obstacle clusters of real KITTI
-// pairs and of synthetic scenes; its pieces are checked against theirs too.
+// where a box is admissible, in-place duplicate suppression, symmetry axes and
+// candidate boxes in parallel bands) gives bit-identical detections to its
+// serial reference, on the obstacle clusters of real KITTI pairs and of
+// synthetic scenes; its pieces are checked against theirs too.
 #include <cstring>
 #include <random>
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include "io/synthetic_scene.hpp"
 #include "vision/human_localizer.hpp"
@@ -76,6 +78,9 @@ TEST(LocalizerExact, RealPairsMatchTheReference) {
 
 TEST(LocalizerExact, SyntheticScenesMatchTheReference) {
   HumanLocalizer fast{LocalizerParams{}};
+  LocalizerParams serial_params;
+  serial_params.parallel = false;
+  HumanLocalizer serial{serial_params};
   HumanLocalizer reference{LocalizerParams{}};
   FeatureExtractor fx;
   Segmenter seg;
@@ -86,7 +91,13 @@ TEST(LocalizerExact, SyntheticScenesMatchTheReference) {
     SegmentationResult r;
     seg.reset();
     segmentPair(fx, seg, pair.left, pair.right, pair.rig, r);
-    detections += expectSameFrame(fast, reference, pair.left, pair.right, pair.rig, r);
+    // The parallel bands with 1, 2 and 4 threads allowed, and the fast path run serially.
+    for (int threads : {1, 2, 4}) {
+      SCOPED_TRACE("threads " + std::to_string(threads));
+      const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+      detections += expectSameFrame(fast, reference, pair.left, pair.right, pair.rig, r);
+    }
+    expectSameFrame(serial, reference, pair.left, pair.right, pair.rig, r);
   }
   EXPECT_GT(detections, 0u) << "no person found: the comparison covers the refinement and HOG steps only vacuously";
 }

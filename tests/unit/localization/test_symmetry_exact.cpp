@@ -1,6 +1,7 @@
 // The symmetry scanner's fast tables give bit-identical candidates to its
 // serial reference, on the obstacle clusters of real pairs and on whole
-// strips of them (every half-width up to 40 pixels).
+// strips of them (every half-width up to 40 pixels), serially and with the
+// axes scanned in parallel bands.
 #include <cstring>
 
 #include <gtest/gtest.h>
@@ -23,10 +24,14 @@ void expectSame(SymmetryScanner& scanner, const cv::Mat& grey, const cv::Mat& ma
   cv::Mat weights;
   scanner.edgeWeights(grey, mask, weights);
   std::vector<SymmetryCandidate> fast, ref;
-  scanner.compute(grey, weights, search, fast);
   scanner.computeReference(grey, weights, search, ref);
-  ASSERT_EQ(fast.size(), ref.size());
-  for (std::size_t i = 0; i < fast.size(); ++i) ASSERT_TRUE(sameCandidate(fast[i], ref[i])) << "candidate " << i;
+  // Serial, and axes dealt to several parallel bands (more bands than threads too).
+  for (int bands : {1, 2, 3, 7}) {
+    SCOPED_TRACE("bands " + std::to_string(bands));
+    scanner.compute(grey, weights, search, fast, bands);
+    ASSERT_EQ(fast.size(), ref.size());
+    for (std::size_t i = 0; i < fast.size(); ++i) ASSERT_TRUE(sameCandidate(fast[i], ref[i])) << "candidate " << i;
+  }
 }
 
 TEST(SymmetryExact, FastTablesMatchTheReference) {
