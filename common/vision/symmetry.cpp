@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <string>
 
 #include <opencv2/imgproc.hpp>
 
@@ -17,11 +18,6 @@ namespace {
 double boxSum(const cv::Mat& integral, int r0, int r1, int c0, int c1) {
   return integral.at<double>(r1 + 1, c1 + 1) - integral.at<double>(r0, c1 + 1) - integral.at<double>(r1 + 1, c0) +
          integral.at<double>(r0, c0);
-}
-
-// Sum over j = 1..k and rows [r0, r1] of a per-axis prefix table.
-double tableSum(const cv::Mat& table, int k, int r0, int r1) {
-  return table.at<double>(k, r1 + 1) - table.at<double>(k, r0);
 }
 
 }  // namespace
@@ -132,183 +128,169 @@ cv::Mat SymmetryScanner::scratch(std::vector<double>& storage, int rows, int col
   return cv::Mat(rows, cols, type, storage.data());
 }
 
-void SymmetryScanner::prepare(const cv::Mat& grey, const cv::Mat& weights) {
-  if (grey.type() != CV_8UC1 || weights.type() != CV_32FC1 || grey.size() != weights.size()) {
-    throw InputError("symmetry: grey (CV_8UC1) and weights (CV_32FC1) must have the same size");
-  }
-  grey.convertTo(grey_f_, CV_64F);
-  grey.copyTo(grey_u8_);
-  weights_ = weights.clone();
-  // Horizontal max filter: the mirror side tolerates a few pixels of asymmetry.
-  const int tol = params_.mirror_tolerance_px;
-  mirror_.create(weights.size(), CV_32FC1);
-  for (int r = 0; r < weights.rows; ++r) {
-    const float* w = weights_.ptr<float>(r);
-    float* m = mirror_.ptr<float>(r);
-    for (int c = 0; c < weights.cols; ++c) {
-      float best = 0.0f;
-      for (int d = std::max(0, c - tol); d <= std::min(weights.cols - 1, c + tol); ++d) best = std::max(best, w[d]);
-      m[c] = best;
+namespace {
+
+// Integral (CV_64F, (rows+1) x (cols+1)) of a CV_32S image of small integers:
+// every entry is an exact integer.
+void integralOf(const cv::Mat& src, cv::Mat& dst) {
+  double* above = dst.ptr<double>(0);
+  for (int c = 0; c <= src.cols; ++c) above[c] = 0.0;
+  for (int r = 0; r < src.rows; ++r) {
+    const auto* s = src.ptr<std::int32_t>(r);
+    double* below = dst.ptr<double>(r + 1);
+    below[0] = 0.0;
+    double run = 0.0;
+    for (int c = 0; c < src.cols; ++c) {
+      run += s[c];
+      below[c + 1] = above[c + 1] + run;
     }
-  }
-  cv::integral(weights_, weight_integral_, CV_64F);
-  cv::integral(mirror_, mirror_integral_, CV_64F);
-  cv::integral(grey, grey_integral_, grey_sq_integral_, CV_64F, CV_64F);
-  col_nonzero_.create(weights.rows + 1, weights.cols, CV_32SC1);
-  col_nonzero_.row(0).setTo(0);
-  for (int r = 0; r < weights.rows; ++r) {
-    const float* w = weights_.ptr<float>(r);
-    const int* above = col_nonzero_.ptr<int>(r);
-    int* below = col_nonzero_.ptr<int>(r + 1);
-    for (int c = 0; c < weights.cols; ++c) below[c] = above[c] + (w[c] >= 0.25f ? 1 : 0);
+    above = below;
   }
 }
 
-void SymmetryScanner::prepareFast(const cv::Mat& grey, const cv::Mat& weights) {
+// One row of the fast path's mirrored sums, for pairs j = 1..n about an axis:
+//   sm[j] += wl[j] * mr[j] + ml[j] * wr[j],   sab[j] += gl[j] * gr[j]
+// where the l arrays run leftwards from the axis (reversed rows) and the r
+// arrays rightwards. Plain integer code: the compiler vectorises it.
+[[gnu::always_inline]] inline void mirroredRowImpl(const std::int32_t* __restrict wl, const std::int32_t* __restrict ml,
+                                                   const std::int32_t* __restrict gl, const std::int32_t* __restrict wr,
+                                                   const std::int32_t* __restrict mr, const std::int32_t* __restrict gr,
+                                                   int n, std::int32_t* __restrict sm, std::int32_t* __restrict sab) {
+  for (int j = 1; j <= n; ++j) {
+    sm[j] += wl[j] * mr[j] + ml[j] * wr[j];
+    sab[j] += gl[j] * gr[j];
+  }
+}
+
+void mirroredRowBaseline(const std::int32_t* wl, const std::int32_t* ml, const std::int32_t* gl, const std::int32_t* wr,
+                         const std::int32_t* mr, const std::int32_t* gr, int n, std::int32_t* sm, std::int32_t* sab) {
+  mirroredRowImpl(wl, ml, gl, wr, mr, gr, n, sm, sab);
+}
+
+#if defined(__x86_64__) || defined(__i386__)
+[[gnu::target("avx2")]] void mirroredRowAvx2(const std::int32_t* wl, const std::int32_t* ml, const std::int32_t* gl,
+                                             const std::int32_t* wr, const std::int32_t* mr, const std::int32_t* gr,
+                                             int n, std::int32_t* sm, std::int32_t* sab) {
+  mirroredRowImpl(wl, ml, gl, wr, mr, gr, n, sm, sab);
+}
+#endif
+
+using MirroredRow = void (*)(const std::int32_t*, const std::int32_t*, const std::int32_t*, const std::int32_t*,
+                             const std::int32_t*, const std::int32_t*, int, std::int32_t*, std::int32_t*);
+
+MirroredRow mirroredRow() {
+#if defined(__x86_64__) || defined(__i386__)
+  static const MirroredRow kernel = [] {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") != 0 ? &mirroredRowAvx2 : &mirroredRowBaseline;
+  }();
+  return kernel;
+#else
+  return &mirroredRowBaseline;
+#endif
+}
+
+}  // namespace
+
+void SymmetryScanner::quantize(const cv::Mat& grey, const cv::Mat& weights) {
   if (grey.type() != CV_8UC1 || weights.type() != CV_32FC1 || grey.size() != weights.size()) {
     throw InputError("symmetry: grey (CV_8UC1) and weights (CV_32FC1) must have the same size");
   }
   const int rows = weights.rows;
   const int cols = weights.cols;
-  weights_ = weights;  // read only, for this call
+  wq_ = scratch(wq_store_, rows, cols, CV_32SC1);
+  mq_ = scratch(mq_store_, rows, cols, CV_32SC1);
   const int tol = params_.mirror_tolerance_px;
-  mirror_ = scratch(mirror_store_, rows, cols, CV_32FC1);
   for (int r = 0; r < rows; ++r) {
-    const float* w = weights_.ptr<float>(r);
-    float* m = mirror_.ptr<float>(r);
+    const float* w = weights.ptr<float>(r);
+    auto* q = wq_.ptr<std::int32_t>(r);
+    for (int c = 0; c < cols; ++c) q[c] = static_cast<std::int32_t>(std::lround(std::clamp(w[c], 0.0f, 1.0f) * kWeightScale));
+    // Horizontal max filter: the mirror side tolerates a few pixels of asymmetry.
+    auto* m = mq_.ptr<std::int32_t>(r);
     for (int c = 0; c < cols; ++c) {
-      float best = 0.0f;
-      for (int d = std::max(0, c - tol); d <= std::min(cols - 1, c + tol); ++d) best = std::max(best, w[d]);
+      std::int32_t best = 0;
+      for (int d = std::max(0, c - tol); d <= std::min(cols - 1, c + tol); ++d) best = std::max(best, q[d]);
       m[c] = best;
     }
   }
-  // cv::integral writes into headers of the right size without reallocating.
   weight_integral_ = scratch(wint_store_, rows + 1, cols + 1, CV_64FC1);
   mirror_integral_ = scratch(mint_store_, rows + 1, cols + 1, CV_64FC1);
   grey_integral_ = scratch(gint_store_, rows + 1, cols + 1, CV_64FC1);
   grey_sq_integral_ = scratch(gsq_store_, rows + 1, cols + 1, CV_64FC1);
-  cv::integral(weights_, weight_integral_, CV_64F);
-  cv::integral(mirror_, mirror_integral_, CV_64F);
+  integralOf(wq_, weight_integral_);
+  integralOf(mq_, mirror_integral_);
   cv::integral(grey, grey_integral_, grey_sq_integral_, CV_64F, CV_64F);
   col_nonzero_ = scratch(colnz_store_, rows + 1, cols, CV_32SC1);
   col_nonzero_.row(0).setTo(0);
   for (int r = 0; r < rows; ++r) {
-    const float* w = weights_.ptr<float>(r);
+    const auto* q = wq_.ptr<std::int32_t>(r);
     const int* above = col_nonzero_.ptr<int>(r);
     int* below = col_nonzero_.ptr<int>(r + 1);
-    for (int c = 0; c < cols; ++c) below[c] = above[c] + (w[c] >= 0.25f ? 1 : 0);
+    for (int c = 0; c < cols; ++c) below[c] = above[c] + (q[c] >= kWeightScale / 4 ? 1 : 0);
   }
 }
 
-void SymmetryScanner::buildAxisFast(AxisTables& t, int axis, int max_half, int rows) const {
-  // Each table is a 2-D prefix sum over half-widths k and rows r:
-  //   t(k, r + 1) = ((t(k, r) + t(k - 1, r + 1)) - t(k - 1, r)) + v(k, r).
-  // Only two of the reference's seven are built: the sums of a, b, a^2, b^2 over
-  // a box are exact integers taken from the region's integral images, and the
-  // mirrored grey product a * b, an exact integer too, is kept as 32-bit column
-  // sums per pair j (ab_prefix_). The two edge tables are floating-point sums
-  // whose rounding must stay that of the reference. Their updates on one
-  // anti-diagonal s = k + r + 1 depend only on the two previous anti-diagonals,
-  // so they are stored skewed, row s + 1 holding t(k, s - k) for every k, and
-  // each anti-diagonal is one vector loop over k with the reference's operations
-  // in the reference's order. Rows 0 and 1 are zero (s = -1 and 0); t(k, r) is
-  // row k + r + 1, column k.
-  const int kmax = max_half;
-  const int width = kmax + 1;
-  const int skew_rows = rows + kmax + 2;
-  t.pe = scratch(t.pe_store, skew_rows, width, CV_64FC1);
-  t.pm = scratch(t.pm_store, skew_rows, width, CV_64FC1);
-  for (cv::Mat* table : {&t.pe, &t.pm}) table->rowRange(0, 2).setTo(0.0);
-  if (t.diagonal.size() < 2 * static_cast<std::size_t>(width)) t.diagonal.resize(2 * static_cast<std::size_t>(width));
-  double* __restrict ve = t.diagonal.data();
-  double* __restrict vm = ve + width;
-  const float* w0 = weights_.ptr<float>(0);
-  const float* m0 = mirror_.ptr<float>(0);
-  const std::uint8_t* g0 = grey_rows_;  // the caller's region, set by computeImpl
-  const auto wstep = static_cast<std::ptrdiff_t>(weights_.step1());
-  const auto mstep = static_cast<std::ptrdiff_t>(mirror_.step1());
-  const auto gstep = static_cast<std::ptrdiff_t>(grey_step_);
-  for (int s = 1; s <= rows + kmax; ++s) {
-    // k with a row r = s - 1 - k inside [0, rows - 1]; t(k, s - k) for smaller k
-    // (rows below the region) is never read, for larger k it is 0 (r + 1 <= 0).
-    const int klo = std::max(1, s - rows);
-    const int khi = std::min(kmax, s - 1);
-    for (int k = khi + 1; k <= kmax; ++k) ve[k] = vm[k] = 0.0;
-    for (int k = klo; k <= khi; ++k) {
-      const std::ptrdiff_t r = s - 1 - k;
-      const float* w = w0 + r * wstep;
-      const float* m = m0 + r * mstep;
-      const double wl = w[axis - k];
-      const double wr = w[axis + k];
-      const double ml = m[axis - k];
-      const double mr = m[axis + k];
-      ve[k] = 0.5 * (wl + wr);
-      vm[k] = 0.5 * (wl * mr + ml * wr);
-    }
-    double* __restrict e = t.pe.ptr<double>(s + 1);
-    const double* __restrict e1 = t.pe.ptr<double>(s);
-    const double* __restrict e2 = t.pe.ptr<double>(s - 1);
-    double* __restrict mm = t.pm.ptr<double>(s + 1);
-    const double* __restrict m1 = t.pm.ptr<double>(s);
-    const double* __restrict m2 = t.pm.ptr<double>(s - 1);
-    e[0] = mm[0] = 0.0;
-    // Two half-widths per vector (lane-wise IEEE operations, the same as the scalar ones).
-    typedef double F64x2 __attribute__((vector_size(16)));
-    auto load = [](const double* p) {
-      F64x2 v;
-      std::memcpy(&v, p, sizeof v);
-      return v;
-    };
-    auto store = [](double* p, F64x2 v) { std::memcpy(p, &v, sizeof v); };
-    int k = klo;
-    for (; k + 1 <= kmax; k += 2) {
-      store(e + k, load(e1 + k) + load(e1 + k - 1) - load(e2 + k - 1) + load(ve + k));
-      store(mm + k, load(m1 + k) + load(m1 + k - 1) - load(m2 + k - 1) + load(vm + k));
-    }
-    for (; k <= kmax; ++k) {
-      e[k] = e1[k] + e1[k - 1] - e2[k - 1] + ve[k];
-      mm[k] = m1[k] + m1[k - 1] - m2[k - 1] + vm[k];
-    }
-  }
-  // Mirrored grey products: exact integers (at most 255^2 per pixel, 255^2 x rows per
-  // column), summed down each column pair j as 32-bit integers, row by row.
-  t.ab_prefix.resize(static_cast<std::size_t>(rows + 1) * static_cast<std::size_t>(width));
-  std::int32_t* prev = t.ab_prefix.data();
-  for (int j = 0; j <= kmax; ++j) prev[j] = 0;
+void SymmetryScanner::prepare(const cv::Mat& grey, const cv::Mat& weights) {
+  quantize(grey, weights);
+  grey.copyTo(grey_u8_);
+}
+
+void SymmetryScanner::prepareFast(const cv::Mat& grey, const cv::Mat& weights) {
+  quantize(grey, weights);
+  // Row copies for the mirrored sums: forward, and reversed (column c at cols - 1 - c),
+  // so that both sides of an axis are read with increasing addresses.
+  const int rows = grey.rows;
+  const int cols = grey.cols;
+  g32_ = scratch(g32_store_, rows, cols, CV_32SC1);
+  wrev_ = scratch(wrev_store_, rows, cols, CV_32SC1);
+  mrev_ = scratch(mrev_store_, rows, cols, CV_32SC1);
+  grev_ = scratch(grev_store_, rows, cols, CV_32SC1);
   for (int r = 0; r < rows; ++r) {
-    const std::uint8_t* g = g0 + static_cast<std::ptrdiff_t>(r) * gstep + axis;
-    std::int32_t* __restrict cur = prev + width;
-    cur[0] = 0;
-    for (int j = 1; j <= kmax; ++j) cur[j] = prev[j] + static_cast<std::int32_t>(g[-j]) * static_cast<std::int32_t>(g[j]);
-    prev = cur;
+    const auto* g = grey.ptr<std::uint8_t>(r);
+    const auto* w = wq_.ptr<std::int32_t>(r);
+    const auto* m = mq_.ptr<std::int32_t>(r);
+    auto* gf = g32_.ptr<std::int32_t>(r);
+    auto* wb = wrev_.ptr<std::int32_t>(r);
+    auto* mb = mrev_.ptr<std::int32_t>(r);
+    auto* gb = grev_.ptr<std::int32_t>(r);
+    for (int c = 0; c < cols; ++c) {
+      gf[c] = g[c];
+      wb[cols - 1 - c] = w[c];
+      mb[cols - 1 - c] = m[c];
+      gb[cols - 1 - c] = g[c];
+    }
   }
 }
 
 void SymmetryScanner::buildAxisReference(int axis, int max_half, int rows) {
-  const cv::Size size(rows + 1, max_half + 1);
-  for (cv::Mat* t : {&pe_, &pm_, &pa_, &pb_, &paa_, &pbb_, &pab_}) {
-    t->create(size, CV_64FC1);
-    t->setTo(0.0);
+  // Seven prefix tables over half-widths k and rows r, in exact integers:
+  //   t(k, r + 1) = t(k, r) + t(k - 1, r + 1) - t(k - 1, r) + v(k, r).
+  const std::size_t width = static_cast<std::size_t>(rows) + 1;
+  for (auto* t : {&pe_, &pm_, &pa_, &pb_, &paa_, &pbb_, &pab_}) {
+    t->assign((static_cast<std::size_t>(max_half) + 1) * width, 0);
   }
+  auto at = [width](std::vector<std::int64_t>& t, int k, int r) -> std::int64_t& {
+    return t[static_cast<std::size_t>(k) * width + static_cast<std::size_t>(r)];
+  };
   for (int k = 1; k <= max_half; ++k) {
     const int cl = axis - k;
     const int cr = axis + k;
     for (int r = 0; r < rows; ++r) {
-      const double wl = weights_.at<float>(r, cl);
-      const double wr = weights_.at<float>(r, cr);
-      const double ml = mirror_.at<float>(r, cl);
-      const double mr = mirror_.at<float>(r, cr);
-      const double a = grey_f_.at<double>(r, cl);
-      const double b = grey_f_.at<double>(r, cr);
-      const double values[7] = {0.5 * (wl + wr), 0.5 * (wl * mr + ml * wr), a, b, a * a, b * b, a * b};
-      cv::Mat* tables[7] = {&pe_, &pm_, &pa_, &pb_, &paa_, &pbb_, &pab_};
+      const std::int64_t wl = wq_.at<std::int32_t>(r, cl);
+      const std::int64_t wr = wq_.at<std::int32_t>(r, cr);
+      const std::int64_t ml = mq_.at<std::int32_t>(r, cl);
+      const std::int64_t mr = mq_.at<std::int32_t>(r, cr);
+      const std::int64_t a = grey_u8_.at<std::uint8_t>(r, cl);
+      const std::int64_t b = grey_u8_.at<std::uint8_t>(r, cr);
+      const std::int64_t values[7] = {wl + wr, wl * mr + ml * wr, a, b, a * a, b * b, a * b};
+      std::vector<std::int64_t>* tables[7] = {&pe_, &pm_, &pa_, &pb_, &paa_, &pbb_, &pab_};
       for (int i = 0; i < 7; ++i) {
-        cv::Mat& t = *tables[i];
-        t.at<double>(k, r + 1) =
-            t.at<double>(k, r) + t.at<double>(k - 1, r + 1) - t.at<double>(k - 1, r) + values[i];
+        std::vector<std::int64_t>& t = *tables[i];
+        at(t, k, r + 1) = at(t, k, r) + at(t, k - 1, r + 1) - at(t, k - 1, r) + values[i];
       }
     }
   }
+  reference_width_ = width;
 }
 
 int SymmetryScanner::findTop(int x0, int x1, int bottom) const {
@@ -327,39 +309,18 @@ int SymmetryScanner::findTop(int x0, int x1, int bottom) const {
 }
 
 SymmetryScanner::BoxSums SymmetryScanner::referenceSums(int half, int top, int bottom) const {
-  BoxSums s;
-  s.e = tableSum(pe_, half, top, bottom);
-  s.m = tableSum(pm_, half, top, bottom);
-  s.a = tableSum(pa_, half, top, bottom);
-  s.b = tableSum(pb_, half, top, bottom);
-  s.aa = tableSum(paa_, half, top, bottom);
-  s.bb = tableSum(pbb_, half, top, bottom);
-  s.ab = tableSum(pab_, half, top, bottom);
-  return s;
-}
-
-SymmetryScanner::BoxSums SymmetryScanner::fastSums(const AxisTables& t, int axis, int half, int top,
-                                                   int bottom) const {
-  // Columns axis - half .. axis - 1 and axis + 1 .. axis + half: the reference's
-  // tables summed the same exact integers.
-  // Skewed tables (buildAxisFast): t(k, r) is row k + r + 1, column k.
-  auto skewSum = [&](const cv::Mat& table) {
-    return table.at<double>(half + bottom + 2, half) - table.at<double>(half + top + 1, half);
+  auto sum = [&](const std::vector<std::int64_t>& t) {
+    const std::size_t row = static_cast<std::size_t>(half) * reference_width_;
+    return static_cast<double>(t[row + static_cast<std::size_t>(bottom) + 1] - t[row + static_cast<std::size_t>(top)]);
   };
   BoxSums s;
-  s.e = skewSum(t.pe);
-  s.m = skewSum(t.pm);
-  s.a = boxSum(grey_integral_, top, bottom, axis - half, axis - 1);
-  s.b = boxSum(grey_integral_, top, bottom, axis + 1, axis + half);
-  s.aa = boxSum(grey_sq_integral_, top, bottom, axis - half, axis - 1);
-  s.bb = boxSum(grey_sq_integral_, top, bottom, axis + 1, axis + half);
-  // Mirrored grey product: column sums over [top, bottom] of the pairs j <= half.
-  const std::size_t width = static_cast<std::size_t>(t.pe.cols);
-  const std::int32_t* below = t.ab_prefix.data() + static_cast<std::size_t>(bottom + 1) * width;
-  const std::int32_t* above = t.ab_prefix.data() + static_cast<std::size_t>(top) * width;
-  std::int64_t ab = 0;
-  for (int j = 1; j <= half; ++j) ab += static_cast<std::int64_t>(below[j]) - static_cast<std::int64_t>(above[j]);
-  s.ab = static_cast<double>(ab);
+  s.e = sum(pe_);
+  s.m = sum(pm_);
+  s.a = sum(pa_);
+  s.b = sum(pb_);
+  s.aa = sum(paa_);
+  s.bb = sum(pbb_);
+  s.ab = sum(pab_);
   return s;
 }
 
@@ -367,15 +328,18 @@ SymmetryCandidate SymmetryScanner::evaluate(int axis, int half, int top, int bot
   SymmetryCandidate c;
   c.axis_col = axis;
   c.box = cv::Rect(axis - half, top, 2 * half + 1, bottom - top + 1);
+  // Weights are integers in units of 1 / kWeightScale: e counts each pair's two
+  // weights, m each pair's two weight x mirrored-weight products.
+  const double scale = kWeightScale;
   const double esum = sums.e;
   const double msum = sums.m;
   // Share of edges with a mirrored edge, corrected for chance: in dense
   // texture a dilated mirror finds an edge anyway, with probability equal to
   // the density of the dilated edge map.
   const double box_area = static_cast<double>(2 * half + 1) * (bottom - top + 1);
-  const double chance = boxSum(mirror_integral_, top, bottom, axis - half, axis + half) / box_area;
+  const double chance = boxSum(mirror_integral_, top, bottom, axis - half, axis + half) / (scale * box_area);
   if (esum > 0.0 && chance < 0.999) {
-    const double ratio = std::clamp(msum / esum, 0.0, 1.0);
+    const double ratio = std::clamp(msum / (scale * esum), 0.0, 1.0);
     c.edge_symmetry = static_cast<float>(std::clamp((ratio - chance) / (1.0 - chance), 0.0, 1.0));
   } else {
     c.edge_symmetry = 0.0f;
@@ -394,7 +358,7 @@ SymmetryCandidate SymmetryScanner::evaluate(int axis, int half, int top, int bot
   const double inside = boxSum(weight_integral_, top, bottom, x0, x1);
   const int margin = std::max(1, half / 2);
   const double wide = boxSum(weight_integral_, top, bottom, std::max(0, x0 - margin),
-                             std::min(weights_.cols - 1, x1 + margin));
+                             std::min(wq_.cols - 1, x1 + margin));
   c.coverage = wide > 0.0 ? static_cast<float>(inside / wide) : 0.0f;
   int occupied = 0;
   for (int x = x0; x <= x1; ++x) {
@@ -402,7 +366,7 @@ SymmetryCandidate SymmetryScanner::evaluate(int axis, int half, int top, int bot
   }
   c.occupancy = static_cast<float>(occupied) / static_cast<float>(x1 - x0 + 1);
   const double area = static_cast<double>(c.box.area());
-  c.edge_density = static_cast<float>(inside / area);
+  c.edge_density = static_cast<float>(inside / (scale * area));
   const double gs = boxSum(grey_integral_, top, bottom, x0, x1);
   const double gss = boxSum(grey_sq_integral_, top, bottom, x0, x1);
   c.grey_stddev = static_cast<float>(std::sqrt(std::max(0.0, gss / area - (gs / area) * (gs / area))));
@@ -427,27 +391,69 @@ bool SymmetryScanner::scanAxisFast(AxisTables& t, int axis, const SymmetrySearch
                                    SymmetryCandidate& best) const {
   const int kmin = std::max(1, search.min_half_width_px);
   const int step = params_.width_step_px;
-  const int kmax = std::min({search.max_half_width_px, axis, weights_.cols - 1 - axis});
+  const int kmax = std::min({search.max_half_width_px, axis, wq_.cols - 1 - axis});
   if (kmax < kmin) return false;
   // The box top of every width, and which widths fit the height and aspect limits.
-  t.tops.assign(static_cast<std::size_t>((kmax - kmin) / step + 1), -1);
+  t.widths.clear();
   int widest = -1;
-  for (int k = kmin, i = 0; k <= kmax; k += step, ++i) {
+  for (int k = kmin; k <= kmax; k += step) {
     const int top = findTop(axis - k, axis + k, bottom);
     const int height = bottom - top + 1;
     if (height < search.min_height_px || height > search.max_height_px) continue;
     const double aspect = static_cast<double>(height) / (2 * k + 1);
     if (aspect < search.min_aspect || aspect > search.max_aspect) continue;
-    t.tops[static_cast<std::size_t>(i)] = top;
+    t.widths.push_back({k, top, 0, 0});
     widest = k;
   }
-  if (widest < 0) return false;  // no admissible box on this axis: no tables
-  buildAxisFast(t, axis, widest, bottom + 1);
+  if (widest < 0) return false;  // no admissible box on this axis: no sums
+  // The mirrored sums of pairs j <= widest, accumulated upwards from the bottom
+  // row; a width is read off when the rows reach its top. Widths are visited
+  // by decreasing top (stable insertion sort: at most a few dozen).
+  t.order.resize(t.widths.size());
+  for (std::size_t i = 0; i < t.widths.size(); ++i) {
+    std::size_t j = i;
+    while (j > 0 && t.widths[t.order[j - 1]].top < t.widths[i].top) {
+      t.order[j] = t.order[j - 1];
+      --j;
+    }
+    t.order[j] = i;
+  }
+  const auto width = static_cast<std::size_t>(widest) + 1;
+  t.sm.assign(width, 0);
+  t.sab.assign(width, 0);
+  const MirroredRow kernel = mirroredRow();
+  const int cols = wq_.cols;
+  const int left_start = cols - 1 - axis;  // reversed-row column of the axis
+  std::size_t next = 0;
+  for (int r = bottom; next < t.order.size(); --r) {
+    kernel(wrev_.ptr<std::int32_t>(r) + left_start, mrev_.ptr<std::int32_t>(r) + left_start,
+           grev_.ptr<std::int32_t>(r) + left_start, wq_.ptr<std::int32_t>(r) + axis, mq_.ptr<std::int32_t>(r) + axis,
+           g32_.ptr<std::int32_t>(r) + axis, widest, t.sm.data(), t.sab.data());
+    while (next < t.order.size() && t.widths[t.order[next]].top == r) {
+      AxisWidth& w = t.widths[t.order[next]];
+      std::int64_t m = 0, ab = 0;
+      for (int j = 1; j <= w.half; ++j) {
+        m += t.sm[static_cast<std::size_t>(j)];
+        ab += t.sab[static_cast<std::size_t>(j)];
+      }
+      w.m = m;
+      w.ab = ab;
+      ++next;
+    }
+  }
   bool found = false;
-  for (int k = kmin, i = 0; k <= widest; k += step, ++i) {
-    const int top = t.tops[static_cast<std::size_t>(i)];
-    if (top < 0) continue;
-    const SymmetryCandidate c = evaluate(axis, k, top, bottom, fastSums(t, axis, k, top, bottom));
+  for (const AxisWidth& w : t.widths) {
+    BoxSums s;
+    // Columns axis - half .. axis - 1 and axis + 1 .. axis + half, rows [top, bottom].
+    s.e = boxSum(weight_integral_, w.top, bottom, axis - w.half, axis - 1) +
+          boxSum(weight_integral_, w.top, bottom, axis + 1, axis + w.half);
+    s.m = static_cast<double>(w.m);
+    s.a = boxSum(grey_integral_, w.top, bottom, axis - w.half, axis - 1);
+    s.b = boxSum(grey_integral_, w.top, bottom, axis + 1, axis + w.half);
+    s.aa = boxSum(grey_sq_integral_, w.top, bottom, axis - w.half, axis - 1);
+    s.bb = boxSum(grey_sq_integral_, w.top, bottom, axis + 1, axis + w.half);
+    s.ab = static_cast<double>(w.ab);
+    const SymmetryCandidate c = evaluate(axis, w.half, w.top, bottom, s);
     if (!found || c.score > best.score) {
       best = c;
       found = true;
@@ -459,10 +465,13 @@ bool SymmetryScanner::scanAxisFast(AxisTables& t, int axis, const SymmetrySearch
 void SymmetryScanner::computeImpl(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
                                   std::vector<SymmetryCandidate>& out, bool reference, int bands) {
   out.clear();
+  // The mirrored sums are 32-bit: at most 2 kWeightScale^2 per row and pair.
+  if (grey.rows > kMaxRows) {
+    throw InputError("symmetry: region of " + std::to_string(grey.rows) + " rows is taller than the " +
+                     std::to_string(kMaxRows) + " rows the 32-bit sums allow");
+  }
   if (reference) prepare(grey, weights);
   else prepareFast(grey, weights);
-  grey_rows_ = grey.ptr<std::uint8_t>(0);
-  grey_step_ = grey.step[0];
   const int cols = grey.cols;
   const int bottom = std::clamp(search.bottom_row, 0, grey.rows - 1);
   const int rows = bottom + 1;
@@ -521,6 +530,7 @@ SymmetryCandidate SymmetryScanner::measure(const cv::Mat& grey, const cv::Mat& w
       top > bottom || half_width < 1) {
     throw InputError("symmetry: box outside the region");
   }
+  if (grey.rows > kMaxRows) throw InputError("symmetry: region taller than " + std::to_string(kMaxRows) + " rows");
   prepare(grey, weights);
   buildAxisReference(axis_col, half_width, bottom + 1);
   return evaluate(axis_col, half_width, top, bottom, referenceSums(half_width, top, bottom));

@@ -95,14 +95,15 @@ class SymmetryScanner {
 
   // Every axis/width of `search` whose box fits the height and aspect limits,
   // best-scoring width per axis. `grey` CV_8U and `weights` CV_32F, same size.
-  // Fast path: the box top of every width is found first, so that an axis with
-  // no admissible box builds no tables and the others build them only up to the
-  // widest admissible half-width; the four grey sums come from the region's
-  // integral images (exact integers); the mirrored grey product and the two edge
-  // tables are built one anti-diagonal at a time (vectors over the half-widths),
-  // with the reference's floating-point operations in the reference's order.
-  // Scratch is kept across calls (no allocation once it has grown to the
-  // largest region).
+  // The edge weights are quantized to 1/512 steps, so every sum is an exact
+  // integer. Fast path: the box top of every width is found first, so that an
+  // axis with no admissible box costs nothing more; the edge and grey sums of
+  // each half come from the region's integral images; the two mirrored
+  // products (edge x mirrored edge, grey x grey) are summed per column pair in
+  // 32-bit integers (vectors over the pairs), upwards from the bottom row and
+  // only up to the highest box top. Scratch is kept across calls (no allocation
+  // once it has grown to the largest region). A region may have at most 4095
+  // rows (InputError above).
   //
   // bands > 1: the axes are dealt round-robin to that many bands, which run in
   // parallel (forEachBand), each with its own tables; the candidates come out in
@@ -110,8 +111,8 @@ class SymmetryScanner {
   void compute(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
                std::vector<SymmetryCandidate>& out, int bands = 1);
 
-  // Same with the serial reference tables (one dependent chain per table, every
-  // half-width of every axis); bit-identical to compute().
+  // Same with the serial reference: seven plain prefix tables over every
+  // half-width and row of every axis; bit-identical to compute().
   void computeReference(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
                         std::vector<SymmetryCandidate>& out);
 
@@ -122,55 +123,64 @@ class SymmetryScanner {
   const SymmetryParams& params() const { return params_; }
 
  private:
-  // Sums over one box of the per-axis quantities, from either set of tables.
+  // Edge weights are quantized to integers in units of 1 / kWeightScale, so that
+  // every sum below is an exact integer, whatever the order of summation.
+  static constexpr int kWeightScale = 512;
+  // The per-row mirrored sums are 32-bit: at most 2 * kWeightScale^2 per pair and row.
+  static constexpr int kMaxRows = 4095;
+
+  // Sums over one box of the per-axis quantities (exact integers).
   struct BoxSums {
-    double e = 0.0, m = 0.0;                          // edge weight, mirrored edge weight
+    double e = 0.0, m = 0.0;                          // edge weight, mirrored edge weight products
     double a = 0.0, b = 0.0, aa = 0.0, bb = 0.0, ab = 0.0;  // grey left/right halves
   };
-
-  // Per-axis tables of the fast path (one set per band of axes), reused across calls.
+  // One admissible width of an axis: half-width, box top, and its mirrored sums.
+  struct AxisWidth {
+    int half = 0;
+    int top = 0;
+    std::int64_t m = 0, ab = 0;
+  };
+  // Per-axis scratch of the fast path (one set per band of axes), reused across calls.
   struct AxisTables {
-    // pe, pm: the two edge tables, skewed: (rows+max_half+2) x (max_half+1), t(k, r) at row k + r + 1, column k.
-    cv::Mat pe, pm;
-    std::vector<double> pe_store, pm_store;
-    std::vector<double> diagonal;          // one anti-diagonal of the two edge table increments
-    std::vector<std::int32_t> ab_prefix;   // (rows+1) x (max_half+1): per pair j, sum of a * b over rows < r
-    std::vector<int> tops;                 // box top per half-width of the current axis (-1: not admissible)
+    std::vector<AxisWidth> widths;
+    std::vector<std::size_t> order;   // widths by decreasing top
+    std::vector<std::int32_t> sm, sab;  // per pair j: mirrored edge products, grey products, rows [r, bottom]
   };
 
+  // Quantized weights, their mirror (max over +-mirror_tolerance_px), integrals, column counts.
+  void quantize(const cv::Mat& grey, const cv::Mat& weights);
   void prepare(const cv::Mat& grey, const cv::Mat& weights);
   void prepareFast(const cv::Mat& grey, const cv::Mat& weights);
   void computeImpl(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
                    std::vector<SymmetryCandidate>& out, bool reference, int bands);
   // Best candidate of one axis (fast path); false when no width is admissible there.
   bool scanAxisFast(AxisTables& t, int axis, const SymmetrySearch& search, int bottom, SymmetryCandidate& best) const;
-  void buildAxisFast(AxisTables& t, int axis, int max_half, int rows) const;
   void buildAxisReference(int axis, int max_half, int rows);
   BoxSums referenceSums(int half, int top, int bottom) const;
-  BoxSums fastSums(const AxisTables& t, int axis, int half, int top, int bottom) const;
   SymmetryCandidate evaluate(int axis, int half, int top, int bottom, const BoxSums& sums) const;
   int findTop(int x0, int x1, int bottom) const;
   // A CV_64F/CV_32F/CV_32S header of exactly rows x cols over `storage`, which only grows.
   static cv::Mat scratch(std::vector<double>& storage, int rows, int cols, int type);
 
   SymmetryParams params_;
-  cv::Mat grey_f_;        // CV_64F copy of the region (reference)
-  cv::Mat weights_;       // CV_32F
-  cv::Mat mirror_;        // CV_32F, weights dilated horizontally by the tolerance
-  cv::Mat weight_integral_;  // CV_64F (rows+1) x (cols+1)
+  cv::Mat wq_, mq_;       // CV_32S quantized weights and their mirror (both paths)
+  cv::Mat weight_integral_;  // CV_64F (rows+1) x (cols+1), exact integers
   cv::Mat mirror_integral_;
   cv::Mat grey_integral_, grey_sq_integral_;
   cv::Mat col_nonzero_;   // CV_32S (rows+1) x cols: per column, count of edge pixels above row
-  // Per-axis prefix tables of the reference, (max_half+1) x (rows+1), summed over j <= k and rows < r.
-  cv::Mat pe_, pm_, pa_, pb_, paa_, pbb_, pab_;
+  // Reference: per-axis prefix tables, (max_half+1) x (rows+1) row-major (row width
+  // reference_width_), summed over pairs j <= k and rows < r.
+  std::vector<std::int64_t> pe_, pm_, pa_, pb_, paa_, pbb_, pab_;
+  std::size_t reference_width_ = 0;
   cv::Mat grey_u8_;  // the region's grey levels (reference)
-  // Fast path storage behind the headers above, reused across calls.
-  std::vector<double> weights_store_, mirror_store_, wint_store_, mint_store_, gint_store_, gsq_store_, colnz_store_;
+  // Fast path: CV_32S rows forward (g32_) and reversed (wrev_, mrev_, grev_).
+  cv::Mat g32_, wrev_, mrev_, grev_;
+  // Storage behind the headers above, reused across calls.
+  std::vector<double> wq_store_, mq_store_, wint_store_, mint_store_, gint_store_, gsq_store_, colnz_store_,
+      g32_store_, wrev_store_, mrev_store_, grev_store_;
   std::vector<AxisTables> bands_;                // one per band of axes
   std::vector<SymmetryCandidate> axis_best_;     // per axis index: its best candidate ...
   std::vector<std::uint8_t> axis_found_;         // ... when it has one
-  const std::uint8_t* grey_rows_ = nullptr;  // the region of the current call (row 0) and its row step
-  std::size_t grey_step_ = 0;
 };
 
 }  // namespace sg
