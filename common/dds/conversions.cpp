@@ -3,6 +3,7 @@
 #include <time.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <sstream>
@@ -219,8 +220,8 @@ void readFeatureFrame(const sg_idl_FeatureFrame& in, FeatureFrameData& out) {
   readImage(in.right, in.width, in.height, out.right, what, "right", true);
 }
 
-void encodeLabels(const cv::Mat& labels, std::vector<std::uint8_t>& run_label,
-                  std::vector<std::uint32_t>& run_length) {
+void encodeLabelsReference(const cv::Mat& labels, std::vector<std::uint8_t>& run_label,
+                           std::vector<std::uint32_t>& run_length) {
   run_label.clear();
   run_length.clear();
   if (labels.empty()) return;
@@ -234,6 +235,52 @@ void encodeLabels(const cv::Mat& labels, std::vector<std::uint8_t>& run_label,
         run_label.push_back(row[x]);
         run_length.push_back(1);
       }
+    }
+  }
+}
+
+namespace {
+
+// First index in [from, n) whose byte differs from v (n when none): eight bytes per step.
+int runEnd(const std::uint8_t* row, int from, int n, std::uint8_t v) {
+  const std::uint64_t pattern = 0x0101010101010101ull * v;
+  int x = from;
+  for (; x + 8 <= n; x += 8) {
+    std::uint64_t word;
+    std::memcpy(&word, row + x, sizeof word);
+    const std::uint64_t diff = word ^ pattern;
+    // Little-endian: the lowest set bit is in the first differing byte.
+    if (diff != 0) return x + std::countr_zero(diff) / 8;
+  }
+  while (x < n && row[x] == v) ++x;
+  return x;
+}
+
+}  // namespace
+
+void encodeLabels(const cv::Mat& labels, std::vector<std::uint8_t>& run_label, std::vector<std::uint32_t>& run_length) {
+  if constexpr (std::endian::native != std::endian::little) {
+    encodeLabelsReference(labels, run_label, run_length);
+    return;
+  }
+  run_label.clear();
+  run_length.clear();
+  if (labels.empty()) return;
+  if (labels.type() != CV_8UC1) throw InputError("label image must be CV_8UC1, got type " + str(labels.type()));
+  // A run may continue from the end of one row into the next.
+  for (int y = 0; y < labels.rows; ++y) {
+    const std::uint8_t* row = labels.ptr<std::uint8_t>(y);
+    int x = 0;
+    if (!run_label.empty()) {
+      const int end = runEnd(row, 0, labels.cols, run_label.back());
+      run_length.back() += static_cast<std::uint32_t>(end);
+      x = end;
+    }
+    while (x < labels.cols) {
+      const int end = runEnd(row, x + 1, labels.cols, row[x]);
+      run_label.push_back(row[x]);
+      run_length.push_back(static_cast<std::uint32_t>(end - x));
+      x = end;
     }
   }
 }

@@ -118,8 +118,12 @@ class DetectionsEncoder {
 };
 void readDetections(const sg_idl_HumanDetections& in, DetectionsData& out);
 
-// Run-length code of a CV_8UC1 label image, row-major (exposed for tests).
+// Run-length code of a CV_8UC1 label image, row-major (a run may continue into
+// the next row); exposed for tests. Runs are found eight bytes at a time.
 void encodeLabels(const cv::Mat& labels, std::vector<std::uint8_t>& run_label, std::vector<std::uint32_t>& run_length);
+// The same code pixel by pixel: the reference of encodeLabels().
+void encodeLabelsReference(const cv::Mat& labels, std::vector<std::uint8_t>& run_label,
+                           std::vector<std::uint32_t>& run_length);
 // Throws InputError when the runs do not cover exactly width * height pixels.
 void decodeLabels(const std::uint8_t* run_label, const std::uint32_t* run_length, std::size_t runs, int width,
                   int height, cv::Mat& labels, const std::string& what);

@@ -2,6 +2,7 @@
 // rejected with an InputError naming the field (never a crash).
 #include <cmath>
 #include <limits>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -275,6 +276,35 @@ TEST(LabelRunLength, SinglePixelImageAndEmptyImage) {
   const std::uint32_t zero = 0;
   const std::uint8_t value = 1;
   EXPECT_THROW(decodeLabels(&value, &zero, 1, 1, 1, decoded, "test"), InputError);
+}
+
+TEST(LabelRunLength, FastEncoderMatchesTheReferenceAndRoundTrips) {
+  std::mt19937 rng(5);
+  for (int trial = 0; trial < 200; ++trial) {
+    const int w = 1 + static_cast<int>(rng() % 70), h = 1 + static_cast<int>(rng() % 6);
+    // Runs of random length (1 to 40 pixels) of a few labels, crossing row ends;
+    // every fourth image is a region of a larger one (rows not contiguous).
+    cv::Mat big(h + 2, w + 5, CV_8UC1);
+    int left = 0;
+    std::uint8_t value = 0;
+    for (auto it = big.begin<std::uint8_t>(); it != big.end<std::uint8_t>(); ++it) {
+      if (left-- <= 0) {
+        left = static_cast<int>(rng() % 40);
+        value = static_cast<std::uint8_t>(rng() % 4);
+      }
+      *it = value;
+    }
+    const cv::Mat labels = trial % 4 == 0 ? big(cv::Rect(3, 1, w, h)) : big(cv::Rect(0, 0, w, h)).clone();
+    std::vector<std::uint8_t> fast_labels, ref_labels;
+    std::vector<std::uint32_t> fast_lengths, ref_lengths;
+    encodeLabels(labels, fast_labels, fast_lengths);
+    encodeLabelsReference(labels, ref_labels, ref_lengths);
+    ASSERT_EQ(fast_labels, ref_labels) << "trial " << trial;
+    ASSERT_EQ(fast_lengths, ref_lengths) << "trial " << trial;
+    cv::Mat decoded;
+    decodeLabels(fast_labels.data(), fast_lengths.data(), fast_labels.size(), w, h, decoded, "test");
+    ASSERT_EQ(cv::countNonZero(decoded != labels), 0) << "trial " << trial;
+  }
 }
 
 TEST(DetectionsConversion, RoundTripAndValidation) {
