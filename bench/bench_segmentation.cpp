@@ -9,7 +9,8 @@
 //    ground contact, HOG shape validation; no tracking) on a fixed
 //    segmentation of each frame, computed once outside the timed loop, so the
 //    figure does not move with the segmentation: KITTI pairs and synthetic
-//    scenes (seeds 1000-1007, 1242x375), serial reference and fast path.
+//    scenes (seeds 1000-1007, 1242x375), serial reference and fast path on
+//    one thread, fast path on two (parallel bands of axes and boxes).
 //  - Cost as work grows: the segmentation, the correlation and StereoBM on
 //    analytic scenes of 640x480, 1242x375 and 1920x1080 with 64, 128 and 256
 //    offsets (StereoBM with as many disparities).
@@ -299,22 +300,24 @@ void registerWhole(const std::string& prefix, const std::function<const FrameSet
       ->UseRealTime();
 }
 
-// Localization on a fixed segmentation (one thread; the localizer is serial).
+// Localization on a fixed segmentation: the reference and the fast path on one
+// thread, and the fast path's parallel bands on two.
 void registerLocalization() {
   const std::pair<const char*, const std::vector<SegmentedFrame>& (*)()> sets[] = {
       {"kitti", segmentedKitti}, {"synthetic", segmentedSynthetic}};
+  const std::pair<Impl, int> variants[] = {{Impl::kReference, 1}, {Impl::kFast, 1}, {Impl::kFast, 2}};
   for (const auto& [name, frames] : sets) {
-    for (Impl impl : {Impl::kReference, Impl::kFast}) {
+    for (const auto& [impl, threads] : variants) {
       const bool ref = impl == Impl::kReference;
-      const std::string bench =
-          std::string("localization/") + name + "/" + (ref ? "reference" : "fast") + "/threads:1";
-      benchmark::RegisterBenchmark(bench.c_str(), [ref, frames = frames](benchmark::State& state) {
+      const std::string bench = std::string("localization/") + name + "/" + (ref ? "reference" : "fast") +
+                                "/threads:" + std::to_string(threads);
+      benchmark::RegisterBenchmark(bench.c_str(), [ref, threads = threads, frames = frames](benchmark::State& state) {
         const std::vector<SegmentedFrame>& set = frames();
         if (set.empty()) {
           state.SkipWithError("no frames (real pairs missing under SG_SHARED_DATA_DIR?)");
           return;
         }
-        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
         sg::HumanLocalizer loc{sg::LocalizerParams{}};
         std::vector<sg::HumanDetection> out;
         std::size_t boxes = 0;
@@ -428,6 +431,8 @@ void printSummary(const Collector& c) {
     const std::string l = std::string("localization/") + set;
     printRatio(c, l + ": reference / fast (1 thread)", l + "/reference/threads:1/real_time",
                l + "/fast/threads:1/real_time");
+    printRatio(c, l + ": fast 1 thread / 2 threads", l + "/fast/threads:1/real_time", l + "/fast/threads:2/real_time",
+               true);
   }
   printRatio(c, "segmentation kitti: 1 thread / 2 threads", "segmentation/kitti/threads:1/real_time",
              "segmentation/kitti/threads:2/real_time", true);
