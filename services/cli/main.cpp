@@ -1,6 +1,8 @@
 // stereoguard: offline tools (segment, detect, evaluate, synth, bench) and the
-// launcher of the DDS pipeline (run). Exit status: 0 success, 2 bad usage or
-// bad input (one message on stderr naming the file, field or value), 1 internal failure.
+// launcher of the DDS pipeline (run). Exit status: 0 success, 2 bad usage, bad
+// input (one message on stderr naming the file, field or value) or a DDS entity
+// that DDS Security does not permit (record, replay, run with a secured
+// configuration), 1 internal failure.
 #include <exception>
 #include <iostream>
 
@@ -8,6 +10,7 @@
 
 #include "commands.hpp"
 #include "config/errors.hpp"
+#include "dds/dds.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"stereoguard: finds people around a vehicle with a calibrated stereo camera"};
@@ -31,6 +34,13 @@ int main(int argc, char** argv) {
     std::cerr << "stereoguard: " << e.what() << "\n";
     return 2;
   } catch (const std::exception& e) {
+    // Refused by DDS Security: the identity's permissions lack a grant; a
+    // configuration error, like bad input, not a failure of the tool.
+    const auto* dds = dynamic_cast<const sg::dds::DdsError*>(&e);
+    if (dds != nullptr && dds->notAllowedBySecurity()) {
+      std::cerr << "stereoguard: configuration error: not allowed by DDS Security: " << e.what() << "\n";
+      return 2;
+    }
     std::cerr << "stereoguard: internal error: " << e.what() << "\n";
     return 1;
   }

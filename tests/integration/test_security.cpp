@@ -8,7 +8,8 @@
 //  - a participant without security neither matches nor receives anything;
 //  - a stage started with an identity whose permissions lack its topics stops
 //    at once with status 2 (a configuration error the launcher does not
-//    restart) and one line naming the stage, the topic and the missing grant.
+//    restart) and one line naming the stage, the topic and the missing grant;
+//    so does the stereoguard tool (record).
 // Skipped when openssl or Cyclone's security plugins are not installed.
 #include <unistd.h>
 
@@ -32,6 +33,7 @@ using namespace std::chrono_literals;
 
 constexpr int kDomain = 184;  // one domain per integration test
 constexpr int kStageDomain = 204;
+constexpr int kToolDomain = 205;
 constexpr int kSamples = 60;  // 2 s at 30 Hz
 
 // The last JSON object line of a probe's log (Cyclone may log warnings before it).
@@ -172,6 +174,33 @@ TEST(DdsSecurity, StageWhoseIdentityLacksAGrantStopsWithStatus2NamingTheTopic) {
                       "permissions of this DDS Security identity do not grant publishing it)"),
             std::string::npos)
       << text;
+  EXPECT_EQ(text.find("internal error"), std::string::npos) << text;
+}
+
+// The stereoguard tool with the intruder identity: `record` needs readers of
+// stereo_frame, which access control refuses; the tool stops with status 2 and
+// a configuration error naming the topic, not an internal error.
+TEST(DdsSecurity, ToolWhoseIdentityLacksAGrantStopsWithStatus2NamingTheTopic) {
+  test::useLoopbackDds();
+  const std::string logs = SG_TEST_LOG_DIR;
+  Pki pki;
+  ASSERT_FALSE(pki.dir().empty()) << "cannot create a temporary folder";
+  {
+    const std::string log = logs + "/security_tool_pki.log";
+    const auto status = makeTestPki(pki, log);
+    ASSERT_TRUE(status.has_value()) << "make-test-pki.sh did not end";
+    if (*status == 77) GTEST_SKIP() << "DDS Security not available: " << test::tail(log, 3);
+    ASSERT_EQ(*status, 0) << test::tail(log);
+  }
+  const std::string log = logs + "/security_tool_intruder.log";
+  test::ChildProcess tool({SG_STEREOGUARD_EXE, "record", "--out", pki.dir() + "/recording", "--frames", "1",
+                           "--duration", "5"},
+                          {{"CYCLONEDDS_URI", pki.uri("intruder")}, {"SG_DDS_DOMAIN", std::to_string(kToolDomain)}},
+                          log);
+  EXPECT_TRUE(test::exitsWith(tool, 2, 30s, log));
+  const std::string text = test::readFile(log);
+  EXPECT_NE(text.find("stereoguard: configuration error: not allowed by DDS Security: "), std::string::npos) << text;
+  EXPECT_NE(text.find("topic 'stereoguard/stereo_frame'"), std::string::npos) << text;
   EXPECT_EQ(text.find("internal error"), std::string::npos) << text;
 }
 
