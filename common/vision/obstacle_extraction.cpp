@@ -148,13 +148,40 @@ int ObstacleExtractor::rowLimit(int offset) const { return row_limit_[static_cas
 void ObstacleExtractor::offsetHistogram(const cv::Mat& matches, const GroundProfile& ground) {
   const int rows = matches.rows;
   const int offsets = matches.cols;
-  row_median_.resize(static_cast<std::size_t>(rows));
-  median_stale_.resize(static_cast<std::size_t>(rows), 1);
+  const double background =
+      std::isfinite(ground.background_offset) ? static_cast<double>(ground.background_offset) : -1e9;
+  // Per offset: the last row its histogram counts, -1 when it is left out. The fast path
+  // leaves out the banned offsets at the end, from sums it keeps over the iterations.
+  hist_limit_.resize(static_cast<std::size_t>(offsets));
+  for (int d = 0; d < offsets; ++d) {
+    const bool skip =
+        (!fast_ && banned_[static_cast<std::size_t>(d)]) || d <= background + params_.background_margin_px;
+    hist_limit_[static_cast<std::size_t>(d)] = skip ? -1 : rowLimit(d);
+  }
+  const int* lim = hist_limit_.data();
+  const int min_excess = params_.min_row_excess;
+  const int k = offsets / 2;
   for (int y = 0; y < rows; ++y) {
     // Only rows whose counts changed since the last histogram need a new median.
     if (!median_stale_[static_cast<std::size_t>(y)]) continue;
     median_stale_[static_cast<std::size_t>(y)] = 0;
     const int* m = matches.ptr<int>(y);
+    if (fast_) {
+      // Removals lower a few counts by a little: the median is the previous one or one of
+      // the next values below it (a few vector passes), else it is selected. The row's
+      // excess then replaces its previous one in the kept sums.
+      constexpr int kMedianSteps = 16;
+      int& median = row_median_[static_cast<std::size_t>(y)];
+      if (!simd::kthSmallestFrom(m, offsets, k, median, kMedianSteps, median)) {
+        row_values_.assign(m, m + offsets);
+        std::nth_element(row_values_.begin(), row_values_.begin() + k, row_values_.end());
+        median = row_values_[static_cast<std::size_t>(k)];
+      }
+      simd::replaceRowExcess(m, median, min_excess, y, lim, offsets,
+                             row_excess_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(offsets),
+                             hist_sum_.data());
+      continue;
+    }
     // Removals change a few counts by a little: the previous median usually still is the
     // (offsets / 2)-th smallest, which one counting pass shows.
     const int previous = row_median_[static_cast<std::size_t>(y)];
@@ -163,7 +190,6 @@ void ObstacleExtractor::offsetHistogram(const cv::Mat& matches, const GroundProf
       below += m[d] < previous;
       at_most += m[d] <= previous;
     }
-    const int k = offsets / 2;
     if (below <= k && k < at_most) continue;
     row_values_.assign(m, m + offsets);
     const auto mid = row_values_.begin() + k;
@@ -171,25 +197,18 @@ void ObstacleExtractor::offsetHistogram(const cv::Mat& matches, const GroundProf
     row_median_[static_cast<std::size_t>(y)] = *mid;
   }
   offset_hist_.assign(static_cast<std::size_t>(offsets), 0.0f);
-  const double background =
-      std::isfinite(ground.background_offset) ? static_cast<double>(ground.background_offset) : -1e9;
-  // Row by row (contiguous counts, a vector loop), summed as integers: whole numbers.
-  hist_limit_.resize(static_cast<std::size_t>(offsets));
-  for (int d = 0; d < offsets; ++d) {
-    const bool skip = banned_[static_cast<std::size_t>(d)] || d <= background + params_.background_margin_px;
-    hist_limit_[static_cast<std::size_t>(d)] = skip ? -1 : rowLimit(d);
+  if (fast_) {
+    for (int d = 0; d < offsets; ++d)
+      if (!banned_[static_cast<std::size_t>(d)])
+        offset_hist_[static_cast<std::size_t>(d)] = static_cast<float>(hist_sum_[static_cast<std::size_t>(d)]);
+    return;
   }
-  const int* lim = hist_limit_.data();
+  // Row by row, summed as integers: whole numbers.
   hist_sum_.assign(static_cast<std::size_t>(offsets), 0);
   int* sum = hist_sum_.data();
-  const int min_excess = params_.min_row_excess;
   for (int y = 0; y < rows; ++y) {
     const int* m = matches.ptr<int>(y);
     const int median = row_median_[static_cast<std::size_t>(y)];
-    if (fast_) {
-      simd::addRowExcess(m, median, min_excess, y, lim, offsets, sum);
-      continue;
-    }
     for (int d = 0; d < offsets; ++d) {
       const int excess = m[d] - median;
       if (excess >= min_excess && y <= lim[d]) sum[d] += excess;
@@ -260,6 +279,10 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   banned_.assign(static_cast<std::size_t>(offsets), 0);
   row_median_.assign(static_cast<std::size_t>(rows), 0);
   median_stale_.assign(static_cast<std::size_t>(rows), 1);
+  if (fast_) {  // every row is added to the offset histogram's sums afresh
+    row_excess_.assign(static_cast<std::size_t>(rows) * static_cast<std::size_t>(offsets), 0);
+    hist_sum_.assign(static_cast<std::size_t>(offsets), 0);
+  }
   cols_ = cols;
   prepareContactRows(ground, rows, offsets);
   match_scratch_.resize(static_cast<std::size_t>(simd::windowMatchScratchSize(cols, half)));

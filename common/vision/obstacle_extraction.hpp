@@ -156,6 +156,7 @@ class ObstacleExtractor {
   std::vector<int> col_limit_;       // per column: last row of the current candidate's offset
   std::vector<float> offset_hist_;
   std::vector<int> hist_sum_;         // per offset: excess summed (at most rows x cols)
+  std::vector<int> row_excess_;      // fast path: rows x offsets, each row's excess in hist_sum_
   std::vector<int> hist_limit_;      // per offset: last row its histogram counts, -1 when it is left out
   std::vector<int> row_median_;
   std::vector<std::uint8_t> median_stale_;  // rows whose match counts changed since their median

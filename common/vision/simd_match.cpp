@@ -4,6 +4,7 @@
 #include <bit>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 
 // The 32-byte vector helpers below are internal and always inlined: the note
 // about their calling convention without AVX does not apply.
@@ -247,86 +248,198 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
 
 // q[j] = 0xFF where pixel j cannot spoil a window at offset d (j < d, outside the
 // row, no left feature, or a right match), then the windows ANDed over [-half, half].
-[[gnu::always_inline]] inline void windowMatchImpl(const std::uint8_t* left, const std::uint8_t* right, int width,
-                                                   int x0, int x1, int d0, int d1, int tol, int half,
-                                                   std::uint8_t* q, std::uint8_t* out) {
-  if (x1 <= x0) return;
-  std::memset(out + x0, 0, static_cast<std::size_t>(x1 - x0));
-  const U8x32 vtol = splat(tol);
-  const U8x32 vtop = splat(255 - tol);
+// N offsets d .. d + N - 1 at a time, one q row each: a left vector and its grey range
+// serve all of them, and their windows are ORed before `out` is updated.
+template <int N>
+[[gnu::always_inline]] inline void windowGroup(const std::uint8_t* left, const std::uint8_t* right, int width, int x0,
+                                               int x1, int d, int tol, int half, std::uint8_t* scratch,
+                                               std::uint8_t* out) {
+  const U8x32 vtol = splatFromTable(tol);  // tol in [0, 255]
+  const U8x32 vtop = splatFromTable(255 - tol);
   const U8x32 one = splat(1);
   const U8x32 zero{};
-  const int qlo = x0 - half;  // q[i] describes pixel qlo + i
+  const int qlo = x0 - half;  // q[i][j - qlo] describes pixel j at offset d + i
   const int qhi = x1 + half;
-  for (int d = std::max(d0, 0); d <= d1 && d < x1; ++d) {
-    const int ja = std::min(std::max(qlo, d), qhi);
-    const int jb = std::max(std::min(qhi, width), ja);
-    std::memset(q, 0xFF, static_cast<std::size_t>(ja - qlo));
-    // The last vector may overlap the one before it (same values written twice).
-    auto qVector = [&](int j) __attribute__((always_inline)) {
-      const U8x32 a = load(left + j);
-      const U8x32 b = load(right + j - d);
-      U8x32 lo = a > vtol ? a - vtol : zero;
-      lo = lo < one ? one : lo;
-      const U8x32 hi = a > vtop ? splat(255) : a + vtol;
-      const U8x32 ok = matchMask(b, lo, hi - lo) | __builtin_convertvector(a == zero, U8x32);
-      std::memcpy(q + (j - qlo), &ok, sizeof(ok));
-    };
-    int j = ja;
-    for (; j + kLanes <= jb; j += kLanes) qVector(j);
-    if (j < jb && jb - kLanes >= ja) {
-      qVector(jb - kLanes);
-      j = jb;
+  const int jw = std::min(qhi, width);  // pixels from here on are outside the row
+  std::uint8_t* q[N];
+  for (int i = 0; i < N; ++i) q[i] = scratch + i * (qhi - qlo);
+  auto qScalar = [&](int i, int j) __attribute__((always_inline)) {
+    const int a = left[j];
+    const int b = right[j - d - i];
+    q[i][j - qlo] = (a == 0 || (b != 0 && std::abs(a - b) <= tol)) ? 0xFF : 0;
+  };
+  // Per offset, the pixels [ja, jb) are compared; all offsets together from the largest ja.
+  const int ja_all = std::min(std::max(qlo, d + N - 1), qhi);
+  for (int i = 0; i < N; ++i) {
+    const int ja = std::min(std::max(qlo, d + i), qhi);
+    const int jb = std::max(jw, ja);
+    std::memset(q[i], 0xFF, static_cast<std::size_t>(ja - qlo));
+    for (int j = ja; j < std::min(ja_all, jb); ++j) qScalar(i, j);
+    std::memset(q[i] + (jb - qlo), 0xFF, static_cast<std::size_t>(qhi - jb));
+  }
+  // The last vector may overlap the one before it (same values written twice).
+  auto qVector = [&](int j) __attribute__((always_inline)) {
+    const U8x32 a = load(left + j);
+    U8x32 lo = a > vtol ? a - vtol : zero;
+    lo = lo < one ? one : lo;
+    const U8x32 hi = a > vtop ? splat(255) : a + vtol;
+    const U8x32 w = hi - lo;
+    const U8x32 absent = __builtin_convertvector(a == zero, U8x32);
+    for (int i = 0; i < N; ++i) {
+      const U8x32 ok = matchMask(load(right + j - d - i), lo, w) | absent;
+      std::memcpy(q[i] + (j - qlo), &ok, sizeof(ok));
     }
-    for (; j < jb; ++j) {
-      const int a = left[j];
-      const int b = right[j - d];
-      q[j - qlo] = (a == 0 || (b != 0 && std::abs(a - b) <= tol)) ? 0xFF : 0;
+  };
+  int j = ja_all;
+  for (; j + kLanes <= jw; j += kLanes) qVector(j);
+  if (j < jw && jw - kLanes >= ja_all) {
+    qVector(jw - kLanes);
+    j = jw;
+  }
+  for (; j < jw; ++j)
+    for (int i = 0; i < N; ++i) qScalar(i, j);
+  // Windows, ORed over the offsets; ORing a pixel's result twice changes nothing: the last
+  // vector may overlap too. Pixel x matches at offset d + i only from x = d + i on.
+  auto outScalar = [&](int i, int x) __attribute__((always_inline)) {
+    int m = left[x] != 0;
+    for (int k = -half; k <= half; ++k) m &= q[i][x + k - qlo] != 0;
+    out[x] = static_cast<std::uint8_t>(out[x] | m);
+  };
+  auto outVector = [&](int xv) __attribute__((always_inline)) {
+    const U8x32 present = __builtin_convertvector(load(left + xv) != zero, U8x32);
+    U8x32 any{};
+    for (int i = 0; i < N; ++i) {
+      U8x32 m = present;
+      for (int k = -half; k <= half; ++k) m &= load(q[i] + (xv + k - qlo));
+      any |= m;
     }
-    std::memset(q + (jb - qlo), 0xFF, static_cast<std::size_t>(qhi - jb));
-    // ORing a pixel's result twice changes nothing: the last vector may overlap too.
-    auto outVector = [&](int xv) __attribute__((always_inline)) {
-      U8x32 m = __builtin_convertvector(load(left + xv) != zero, U8x32);
-      for (int k = -half; k <= half; ++k) m &= load(q + (xv + k - qlo));
-      U8x32 o = load(out + xv);
-      o |= m & one;
-      std::memcpy(out + xv, &o, sizeof(o));
-    };
-    const int xa = std::max(x0, d);
-    int x = xa;
-    for (; x + kLanes <= x1; x += kLanes) outVector(x);
-    if (x < x1 && x1 - kLanes >= xa) {
-      outVector(x1 - kLanes);
-      x = x1;
-    }
-    for (; x < x1; ++x) {
-      int m = left[x] != 0;
-      for (int k = -half; k <= half; ++k) m &= q[x + k - qlo] != 0;
-      out[x] = static_cast<std::uint8_t>(out[x] | m);
+    U8x32 o = load(out + xv);
+    o |= any & one;
+    std::memcpy(out + xv, &o, sizeof(o));
+  };
+  const int xa_all = std::max(x0, d + N - 1);
+  for (int i = 0; i + 1 < N; ++i)
+    for (int x = std::max(x0, d + i); x < std::min(xa_all, x1); ++x) outScalar(i, x);
+  int x = xa_all;
+  for (; x + kLanes <= x1; x += kLanes) outVector(x);
+  if (x < x1 && x1 - kLanes >= xa_all) {
+    outVector(x1 - kLanes);
+    x = x1;
+  }
+  for (; x < x1; ++x)
+    for (int i = 0; i < N; ++i) outScalar(i, x);
+}
+
+[[gnu::always_inline]] inline void windowMatchImpl(const std::uint8_t* left, const std::uint8_t* right, int width,
+                                                   int x0, int x1, int d0, int d1, int tol, int half,
+                                                   std::uint8_t* scratch, std::uint8_t* out) {
+  if (x1 <= x0) return;
+  std::memset(out + x0, 0, static_cast<std::size_t>(x1 - x0));
+  const int dlast = std::min(d1, x1 - 1);
+  for (int d = std::max(d0, 0); d <= dlast; d += kWindowGroup) {
+    static_assert(kWindowGroup == 4);
+    switch (std::min(kWindowGroup, dlast - d + 1)) {
+      case 1: windowGroup<1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
+      case 2: windowGroup<2>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
+      case 3: windowGroup<3>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
+      default: windowGroup<4>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
     }
   }
 }
 
+typedef std::int32_t I32x8 __attribute__((vector_size(32)));
+
 [[gnu::always_inline]] inline void rowExcessImpl(const int* counts, int median, int min_excess, int row,
-                                                 const int* last_row, int n, int* sum) {
-  typedef std::int32_t I32x8 __attribute__((vector_size(32)));
+                                                 const int* last_row, int n, int* excess, int* sum) {
   const I32x8 vmed = I32x8{} + median;
   const I32x8 vmin = I32x8{} + min_excess;
   const I32x8 vrow = I32x8{} + row;
   int d = 0;
   for (; d + 8 <= n; d += 8) {
-    I32x8 c, lim, s;
+    I32x8 c, lim, old, s;
     std::memcpy(&c, counts + d, sizeof(c));
     std::memcpy(&lim, last_row + d, sizeof(lim));
+    std::memcpy(&old, excess + d, sizeof(old));
     std::memcpy(&s, sum + d, sizeof(s));
     const I32x8 e = c - vmed;
-    s += e & ((e >= vmin) & (vrow <= lim));
+    const I32x8 now = e & ((e >= vmin) & (vrow <= lim));
+    s += now - old;
+    std::memcpy(excess + d, &now, sizeof(now));
     std::memcpy(sum + d, &s, sizeof(s));
   }
   for (; d < n; ++d) {
     const int e = counts[d] - median;
-    if (e >= min_excess && row <= last_row[d]) sum[d] += e;
+    const int now = e >= min_excess && row <= last_row[d] ? e : 0;
+    sum[d] += now - excess[d];
+    excess[d] = now;
   }
+}
+
+[[gnu::always_inline]] inline bool kthSmallestImpl(const int* counts, int n, int k, int previous, int max_steps,
+                                                   int& value) {
+  // How many counts lie below `previous`, and at or below it.
+  int below = 0, at_most = 0;
+  {
+    const I32x8 vp = I32x8{} + previous;
+    I32x8 b{}, a{};
+    int d = 0;
+    for (; d + 8 <= n; d += 8) {
+      I32x8 c;
+      std::memcpy(&c, counts + d, sizeof(c));
+      b -= c < vp;  // true is -1
+      a -= c <= vp;
+    }
+    int lb[8], la[8];
+    std::memcpy(lb, &b, sizeof(lb));
+    std::memcpy(la, &a, sizeof(la));
+    for (int j = 0; j < 8; ++j) {
+      below += lb[j];
+      at_most += la[j];
+    }
+    for (; d < n; ++d) {
+      below += counts[d] < previous;
+      at_most += counts[d] <= previous;
+    }
+  }
+  if (k >= at_most) return false;  // the k-th smallest is above `previous`
+  // Down over the distinct values below v while more than k counts lie below it: the largest
+  // value w below v has below(v) counts at or below it, and below(v) - count(w) below it.
+  int v = previous;
+  for (int step = 0; below > k; ++step) {
+    if (step == max_steps) return false;
+    constexpr int kNone = std::numeric_limits<int>::min();
+    const I32x8 vv = I32x8{} + v;
+    I32x8 top = I32x8{} + kNone, many{};  // per lane: the largest count below v, how often
+    int d = 0;
+    for (; d + 8 <= n; d += 8) {
+      I32x8 c;
+      std::memcpy(&c, counts + d, sizeof(c));
+      const I32x8 valid = c < vv;
+      const I32x8 greater = valid & (c > top);
+      const I32x8 equal = valid & (c == top);
+      top = greater ? c : top;
+      many = greater ? I32x8{} + 1 : many - equal;
+    }
+    int lt[8], lm[8];
+    std::memcpy(lt, &top, sizeof(lt));
+    std::memcpy(lm, &many, sizeof(lm));
+    int w = kNone, times = 0;
+    for (int j = 0; j < 8; ++j) w = std::max(w, lt[j]);
+    for (int j = 0; j < 8; ++j) times += lt[j] == w ? lm[j] : 0;
+    for (; d < n; ++d) {
+      if (counts[d] >= v) continue;
+      if (counts[d] > w) {
+        w = counts[d];
+        times = 1;
+      } else if (counts[d] == w) {
+        ++times;
+      }
+    }
+    v = w;
+    below -= times;
+  }
+  value = v;
+  return true;
 }
 
 // kFloats lanes: 8 in the AVX2 build, 4 in the baseline one (wider selections
@@ -403,8 +516,11 @@ template <int kFloats>
   windowMatchImpl(left, right, width, x0, x1, d0, d1, tol, half, q, out);
 }
 [[gnu::target("avx2")]] void rowExcessAvx2(const int* counts, int median, int min_excess, int row, const int* last_row,
-                                           int n, int* sum) {
-  rowExcessImpl(counts, median, min_excess, row, last_row, n, sum);
+                                           int n, int* excess, int* sum) {
+  rowExcessImpl(counts, median, min_excess, row, last_row, n, excess, sum);
+}
+[[gnu::target("avx2")]] bool kthSmallestAvx2(const int* counts, int n, int k, int previous, int max_steps, int& value) {
+  return kthSmallestImpl(counts, n, k, previous, max_steps, value);
 }
 [[gnu::target("avx2")]] void markAvx2(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d0,
                                       int d1, int tol, std::uint8_t* marks) {
@@ -417,8 +533,13 @@ void windowMatchBaseline(const std::uint8_t* left, const std::uint8_t* right, in
   windowMatchImpl(left, right, width, x0, x1, d0, d1, tol, half, q, out);
 }
 
-void rowExcessBaseline(const int* counts, int median, int min_excess, int row, const int* last_row, int n, int* sum) {
-  rowExcessImpl(counts, median, min_excess, row, last_row, n, sum);
+void rowExcessBaseline(const int* counts, int median, int min_excess, int row, const int* last_row, int n, int* excess,
+                       int* sum) {
+  rowExcessImpl(counts, median, min_excess, row, last_row, n, excess, sum);
+}
+
+bool kthSmallestBaseline(const int* counts, int n, int k, int previous, int max_steps, int& value) {
+  return kthSmallestImpl(counts, n, k, previous, max_steps, value);
 }
 
 void markBaseline(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d0, int d1, int tol,
@@ -498,11 +619,19 @@ void windowMatchRow(const std::uint8_t* left, const std::uint8_t* right, int wid
   windowMatchBaseline(left, right, width, x0, x1, d0, d1, grey_tolerance, half, scratch, out);
 }
 
-void addRowExcess(const int* counts, int median, int min_excess, int row, const int* last_row, int n, int* sum) {
+void replaceRowExcess(const int* counts, int median, int min_excess, int row, const int* last_row, int n, int* excess,
+                      int* sum) {
 #ifdef SG_SIMD_X86
-  if (useAvx2()) return rowExcessAvx2(counts, median, min_excess, row, last_row, n, sum);
+  if (useAvx2()) return rowExcessAvx2(counts, median, min_excess, row, last_row, n, excess, sum);
 #endif
-  rowExcessBaseline(counts, median, min_excess, row, last_row, n, sum);
+  rowExcessBaseline(counts, median, min_excess, row, last_row, n, excess, sum);
+}
+
+bool kthSmallestFrom(const int* counts, int n, int k, int previous, int max_steps, int& value) {
+#ifdef SG_SIMD_X86
+  if (useAvx2()) return kthSmallestAvx2(counts, n, k, previous, max_steps, value);
+#endif
+  return kthSmallestBaseline(counts, n, k, previous, max_steps, value);
 }
 
 float houghWindowSums(const float* lo, const float* mid, const float* hi, int n, float* out) {

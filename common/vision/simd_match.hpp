@@ -50,13 +50,22 @@ void markMatches(const std::uint8_t* left, const std::uint8_t* right, int x0, in
 // x + half] with d <= j < width either is no left feature (j != x) or has
 // right[j - d] != 0 and |left[j] - right[j - d]| <= grey_tolerance. `scratch`
 // holds at least windowMatchScratchSize(x1 - x0, half) bytes.
-constexpr int windowMatchScratchSize(int span, int half) { return span + 2 * half; }
+constexpr int kWindowGroup = 4;  // offsets matched together
+constexpr int windowMatchScratchSize(int span, int half) { return kWindowGroup * (span + 2 * half); }
 void windowMatchRow(const std::uint8_t* left, const std::uint8_t* right, int width, int x0, int x1, int d0, int d1,
                     int grey_tolerance, int half, std::uint8_t* scratch, std::uint8_t* out);
 
-// Obstacle offset histogram, one row: for d in [0, n), sum[d] += counts[d] - median
-// where that excess is at least min_excess and row <= last_row[d].
-void addRowExcess(const int* counts, int median, int min_excess, int row, const int* last_row, int n, int* sum);
+// Obstacle offset histogram, one row: for d in [0, n), the row's excess e = counts[d] -
+// median where it is at least min_excess and row <= last_row[d], else 0, replaces its
+// previous excess held in excess[d], and sum[d] follows (sum[d] += e - excess[d]).
+void replaceRowExcess(const int* counts, int median, int min_excess, int row, const int* last_row, int n, int* excess,
+                      int* sum);
+
+// Obstacle row medians: sets `value` to the k-th smallest (0-based, k < n) of counts[0, n)
+// when it is `previous` or one of the max_steps distinct values of counts below it (the
+// counts of a row only decrease between two of its medians: a few vector passes instead of
+// a selection). Returns false, `value` unchanged, when it is neither.
+bool kthSmallestFrom(const int* counts, int n, int k, int previous, int max_steps, int& value);
 
 // Hough 3x3 window sums (GroundEstimator): out[b] = 0.0f + lo[b - 1] + lo[b] +
 // lo[b + 1] + mid[b - 1] + mid[b] + mid[b + 1] + hi[b - 1] + hi[b] + hi[b + 1],

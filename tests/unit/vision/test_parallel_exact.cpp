@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -417,7 +418,7 @@ TEST(FastObstacles, WindowMatchRowMatchesTheReferenceForAnyOffsetsWindowAndSpan)
       for (const int half : {0, 1, 2, 8}) {
         const int tol = rng.uniform(0, 30);
         const int d0 = shift - rng.uniform(-2, 4);
-        const int d1 = d0 + rng.uniform(0, 5);
+        const int d1 = d0 + rng.uniform(0, 10);  // one to three groups of offsets
         const int x0 = rng.uniform(0, width);
         const int x1 = rng.uniform(x0, width + 1);
         SCOPED_TRACE("width " + std::to_string(width) + ", offsets " + std::to_string(d0) + ".." +
@@ -456,25 +457,139 @@ TEST(FastObstacles, ASmallerImageAfterALargerOneGivesTheFreshResult) {
   for (std::size_t k = 0; k < a.obstacles.size(); ++k) EXPECT_EQ(a.obstacles[k].box, b.obstacles[k].box);
 }
 
-TEST(FastObstacles, RowExcessMatchesTheScalarSum) {
+// The obstacle loop's fast path (vector row matches, offset histogram sums kept over the
+// iterations, medians stepped down from the previous ones) gives the reference's obstacles,
+// labels and remaining features on every real pair and on analytic scenes, also with more
+// iterations and offsets wider than the default tolerance (three and more offsets a group).
+TEST(FastObstacles, TheLoopMatchesTheReferenceOnEveryPair) {
+  std::vector<Pair> all;
+  for (const double x : {-2.5, 0.5}) {
+    test::AnalyticSceneParams p;
+    p.width = 400;
+    p.height = 300;
+    p.boxes = {{x, 6.0, 0.8, 1.8}, {x + 2.0, 11.0, 1.5, 1.2}};
+    const auto scene = test::renderAnalyticScene(p);
+    all.push_back({"analytic", scene.left, scene.right, scene.rig});
+  }
+  for (const test::RealPair& r : test::loadKittiRigPairs()) all.push_back({r.name, r.left, r.right, r.rig});
+  ASSERT_GE(all.size(), 3u) << "no real pairs found under " << SG_SHARED_DATA_DIR;
+  ObstacleParams wide;
+  wide.max_iterations = 40;
+  wide.max_obstacles = 12;
+  wide.offset_tolerance_px = 2;
+  int found = 0;
+  for (const ObstacleParams& params : {ObstacleParams{}, wide}) {
+    ObstacleExtractor fast(params, true), reference(params, false);  // reused over the pairs
+    for (const Pair& p : all) {
+      SCOPED_TRACE(p.name + ", tolerance " + std::to_string(params.offset_tolerance_px));
+      FeatureExtractor fx;
+      cv::Mat lf, rf, score, matches, rem, lab;
+      fx.compute(p.left, lf);
+      fx.compute(p.right, rf);
+      Correlator corr;
+      corr.compute(lf, rf, score, matches);
+      GroundEstimator ground;
+      GroundProfile profile;
+      ground.compute(score, p.rig, nullptr, 0, profile);
+      ground.estimateRoll(lf, rf, p.rig, profile);
+      FeatureRemover remover;
+      std::vector<std::uint8_t> changed;
+      remover.compute(lf, rf, profile, rem, lab, changed);
+      // Rows changed by the removal are recomputed by the stage itself.
+      cv::Mat rem_f = rem.clone(), lab_f = lab.clone(), s_f = score.clone(), m_f = matches.clone();
+      cv::Mat rem_r = rem.clone(), lab_r = lab.clone(), s_r = score.clone(), m_r = matches.clone();
+      std::vector<std::uint8_t> ch_f = changed, ch_r = changed;
+      std::vector<ObstacleCluster> ob_f, ob_r;
+      fast.compute(rem_f, rf, profile, corr, s_f, m_f, ch_f, lab_f, ob_f);
+      reference.compute(rem_r, rf, profile, corr, s_r, m_r, ch_r, lab_r, ob_r);
+      ASSERT_TRUE(test::sameBits(rem_f, rem_r)) << "remaining features";
+      ASSERT_TRUE(test::sameBits(lab_f, lab_r)) << "labels";
+      ASSERT_TRUE(test::sameBits(m_f, m_r)) << "match counts left behind";
+      ASSERT_TRUE(test::sameBits(s_f, s_r)) << "score left behind";
+      ASSERT_EQ(ob_f.size(), ob_r.size());
+      for (std::size_t k = 0; k < ob_f.size(); ++k) {
+        EXPECT_EQ(ob_f[k].label, ob_r[k].label);
+        EXPECT_EQ(ob_f[k].box, ob_r[k].box);
+        EXPECT_EQ(ob_f[k].offset_px, ob_r[k].offset_px);
+        EXPECT_EQ(ob_f[k].min_offset_px, ob_r[k].min_offset_px);
+        EXPECT_EQ(ob_f[k].max_offset_px, ob_r[k].max_offset_px);
+        EXPECT_EQ(ob_f[k].feature_count, ob_r[k].feature_count);
+      }
+      found += static_cast<int>(ob_f.size());
+    }
+  }
+  EXPECT_GT(found, 20);  // the comparison covers real obstacles
+}
+
+TEST(FastObstacles, RowExcessReplacesTheRowsPreviousExcess) {
   cv::RNG rng(29);
   for (const int n : {1, 7, 8, 9, 64, 128, 131}) {
+    // Rows added, then some replaced by other counts, twice: the sums are those of the last counts.
+    constexpr int kRows = 40;
     std::vector<int> counts(static_cast<std::size_t>(n)), last(static_cast<std::size_t>(n));
+    std::vector<int> excess(static_cast<std::size_t>(kRows * n), 0);
     std::vector<int> fast(static_cast<std::size_t>(n), 3), ref(static_cast<std::size_t>(n), 3);
-    for (int row = 0; row < 40; ++row) {
-      for (int d = 0; d < n; ++d) {
-        counts[static_cast<std::size_t>(d)] = rng.uniform(0, 60);
-        last[static_cast<std::size_t>(d)] = rng.uniform(-1, 40);
-      }
-      const int median = rng.uniform(0, 30);
-      simd::addRowExcess(counts.data(), median, 5, row, last.data(), n, fast.data());
-      for (int d = 0; d < n; ++d) {
-        const int e = counts[static_cast<std::size_t>(d)] - median;
-        if (e >= 5 && row <= last[static_cast<std::size_t>(d)]) ref[static_cast<std::size_t>(d)] += e;
+    std::vector<int> final_counts(static_cast<std::size_t>(kRows * n)), final_median(kRows);
+    for (int d = 0; d < n; ++d) last[static_cast<std::size_t>(d)] = rng.uniform(-1, kRows);
+    for (int pass = 0; pass < 3; ++pass) {
+      for (int row = 0; row < kRows; ++row) {
+        if (pass > 0 && rng.uniform(0, 2) == 0) continue;  // rows left as they were
+        for (int d = 0; d < n; ++d) counts[static_cast<std::size_t>(d)] = rng.uniform(0, 60);
+        const int median = rng.uniform(0, 30);
+        int* row_excess = excess.data() + static_cast<std::size_t>(row * n);
+        simd::replaceRowExcess(counts.data(), median, 5, row, last.data(), n, row_excess, fast.data());
+        std::copy(counts.begin(), counts.end(), final_counts.begin() + row * n);
+        final_median[static_cast<std::size_t>(row)] = median;
       }
     }
+    for (int row = 0; row < kRows; ++row)
+      for (int d = 0; d < n; ++d) {
+        const int e = final_counts[static_cast<std::size_t>(row * n + d)] - final_median[static_cast<std::size_t>(row)];
+        if (e >= 5 && row <= last[static_cast<std::size_t>(d)]) ref[static_cast<std::size_t>(d)] += e;
+      }
     ASSERT_EQ(fast, ref) << n << " offsets";
   }
+}
+
+// The row medians found by stepping down from the previous one are the selected ones,
+// or the kernel says it did not find them (the median went up, or too far down).
+TEST(FastObstacles, KthSmallestFromAPreviousValueIsTheSelectedOne) {
+  cv::RNG rng(31);
+  int found = 0, declined = 0;
+  for (const int n : {1, 2, 7, 8, 9, 64, 128, 131}) {
+    for (int trial = 0; trial < 300; ++trial) {
+      std::vector<int> counts(static_cast<std::size_t>(n));
+      const int range = rng.uniform(1, 80);
+      for (int& c : counts) c = rng.uniform(0, range);
+      if (trial % 7 == 0) counts[0] = std::numeric_limits<int>::min();  // extreme values
+      if (trial % 11 == 0) counts[static_cast<std::size_t>(n - 1)] = std::numeric_limits<int>::max();
+      const int k = trial % 3 == 0 ? n / 2 : rng.uniform(0, n);
+      std::vector<int> sorted = counts;
+      std::nth_element(sorted.begin(), sorted.begin() + k, sorted.end());
+      const int expected = sorted[static_cast<std::size_t>(k)];
+      const int previous = rng.uniform(-5, range + 5);
+      const int steps = rng.uniform(0, 20);
+      SCOPED_TRACE(std::to_string(n) + " counts, k " + std::to_string(k) + ", previous " + std::to_string(previous) +
+                   ", steps " + std::to_string(steps));
+      int value = 12345;
+      if (simd::kthSmallestFrom(counts.data(), n, k, previous, steps, value)) {
+        ASSERT_EQ(value, expected);
+        ++found;
+      } else {
+        // Only when it is above `previous` or more than `steps` distinct values below it.
+        ASSERT_EQ(value, 12345);
+        ++declined;
+        std::vector<int> distinct = counts;
+        std::sort(distinct.begin(), distinct.end());
+        distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
+        const auto between =
+            std::count_if(distinct.begin(), distinct.end(), [&](int v) { return v >= expected && v < previous; });
+        ASSERT_TRUE(expected > previous || between > steps);
+      }
+    }
+  }
+  EXPECT_GT(found, 500);
+  EXPECT_GT(declined, 100);
 }
 
 }  // namespace
