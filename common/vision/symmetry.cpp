@@ -148,35 +148,70 @@ void integralOf(const cv::Mat& src, cv::Mat& dst) {
   }
 }
 
-// One row of the fast path's mirrored sums, for pairs j = 1..n about an axis:
-//   sm[j] += wl[j] * mr[j] + ml[j] * wr[j],   sab[j] += gl[j] * gr[j]
-// where the l arrays run leftwards from the axis (reversed rows) and the r
-// arrays rightwards. Plain integer code: the compiler vectorises it.
-[[gnu::always_inline]] inline void mirroredRowImpl(const std::int32_t* __restrict wl, const std::int32_t* __restrict ml,
-                                                   const std::int32_t* __restrict gl, const std::int32_t* __restrict wr,
-                                                   const std::int32_t* __restrict mr, const std::int32_t* __restrict gr,
-                                                   int n, std::int32_t* __restrict sm, std::int32_t* __restrict sab) {
-  for (int j = 1; j <= n; ++j) {
-    sm[j] += wl[j] * mr[j] + ml[j] * wr[j];
-    sab[j] += gl[j] * gr[j];
+// One row of the fast path's mirrored sums, for pairs j = 1..n about the column
+// `axis` of the row's quantized weights w, their mirror m and grey levels g:
+//   sm[j] += w[axis - j] * m[axis + j] + m[axis - j] * w[axis + j]
+//   sab[j] += g[axis - j] * g[axis + j]
+// kLanes pairs per step: the left side is loaded below the axis and reversed
+// in the register. Exact integer arithmetic, so any grouping gives the same sums.
+typedef std::int32_t I32x4 __attribute__((vector_size(16)));
+typedef std::int32_t I32x8 __attribute__((vector_size(32)));
+typedef std::uint8_t U8x4 __attribute__((vector_size(4)));
+typedef std::uint8_t U8x8 __attribute__((vector_size(8)));
+
+template <class I32, class U8>
+[[gnu::always_inline]] inline void mirroredRowImpl(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g,
+                                                   int axis, int n, std::int32_t* sm, std::int32_t* sab) {
+  constexpr int kLanes = sizeof(I32) / sizeof(std::int32_t);
+  static_assert(sizeof(U8) == kLanes);
+  I32 reverse;
+  for (int i = 0; i < kLanes; ++i) reverse[i] = kLanes - 1 - i;
+  // Loads and stores through memcpy: the rows and sums have no vector alignment.
+  auto load = [](const auto* p, auto& v) { std::memcpy(&v, p, sizeof v); };
+  const std::int32_t* wa = w + axis;
+  const std::int32_t* ma = m + axis;
+  const std::uint8_t* ga = g + axis;
+  int j = 1;
+  for (; j + kLanes - 1 <= n; j += kLanes) {
+    I32 wr, mr, wl, ml, s, t;
+    U8 gr8, gl8;
+    load(wa + j, wr);
+    load(ma + j, mr);
+    load(wa - j - (kLanes - 1), wl);
+    load(ma - j - (kLanes - 1), ml);
+    load(ga + j, gr8);
+    load(ga - j - (kLanes - 1), gl8);
+    wl = __builtin_shuffle(wl, reverse);
+    ml = __builtin_shuffle(ml, reverse);
+    const I32 gl = __builtin_shuffle(__builtin_convertvector(gl8, I32), reverse);
+    const I32 gr = __builtin_convertvector(gr8, I32);
+    load(sm + j, s);
+    load(sab + j, t);
+    s += wl * mr + ml * wr;
+    t += gl * gr;
+    std::memcpy(sm + j, &s, sizeof s);
+    std::memcpy(sab + j, &t, sizeof t);
+  }
+  for (; j <= n; ++j) {
+    sm[j] += wa[-j] * ma[j] + ma[-j] * wa[j];
+    sab[j] += static_cast<std::int32_t>(ga[-j]) * static_cast<std::int32_t>(ga[j]);
   }
 }
 
-void mirroredRowBaseline(const std::int32_t* wl, const std::int32_t* ml, const std::int32_t* gl, const std::int32_t* wr,
-                         const std::int32_t* mr, const std::int32_t* gr, int n, std::int32_t* sm, std::int32_t* sab) {
-  mirroredRowImpl(wl, ml, gl, wr, mr, gr, n, sm, sab);
+void mirroredRowBaseline(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g, int axis, int n,
+                         std::int32_t* sm, std::int32_t* sab) {
+  mirroredRowImpl<I32x4, U8x4>(w, m, g, axis, n, sm, sab);
 }
 
 #if defined(__x86_64__) || defined(__i386__)
-[[gnu::target("avx2")]] void mirroredRowAvx2(const std::int32_t* wl, const std::int32_t* ml, const std::int32_t* gl,
-                                             const std::int32_t* wr, const std::int32_t* mr, const std::int32_t* gr,
-                                             int n, std::int32_t* sm, std::int32_t* sab) {
-  mirroredRowImpl(wl, ml, gl, wr, mr, gr, n, sm, sab);
+[[gnu::target("avx2")]] void mirroredRowAvx2(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g,
+                                             int axis, int n, std::int32_t* sm, std::int32_t* sab) {
+  mirroredRowImpl<I32x8, U8x8>(w, m, g, axis, n, sm, sab);
 }
 #endif
 
-using MirroredRow = void (*)(const std::int32_t*, const std::int32_t*, const std::int32_t*, const std::int32_t*,
-                             const std::int32_t*, const std::int32_t*, int, std::int32_t*, std::int32_t*);
+using MirroredRow = void (*)(const std::int32_t*, const std::int32_t*, const std::uint8_t*, int, int, std::int32_t*,
+                             std::int32_t*);
 
 MirroredRow mirroredRow() {
 #if defined(__x86_64__) || defined(__i386__)
@@ -204,13 +239,17 @@ void SymmetryScanner::quantize(const cv::Mat& grey, const cv::Mat& weights) {
   for (int r = 0; r < rows; ++r) {
     const float* w = weights.ptr<float>(r);
     auto* q = wq_.ptr<std::int32_t>(r);
-    for (int c = 0; c < cols; ++c) q[c] = static_cast<std::int32_t>(std::lround(std::clamp(w[c], 0.0f, 1.0f) * kWeightScale));
-    // Horizontal max filter: the mirror side tolerates a few pixels of asymmetry.
-    auto* m = mq_.ptr<std::int32_t>(r);
+    // Rounded to the nearest step (halves up; w >= 0): exact in double, and a vector loop.
     for (int c = 0; c < cols; ++c) {
-      std::int32_t best = 0;
-      for (int d = std::max(0, c - tol); d <= std::min(cols - 1, c + tol); ++d) best = std::max(best, q[d]);
-      m[c] = best;
+      q[c] = static_cast<std::int32_t>(static_cast<double>(std::clamp(w[c], 0.0f, 1.0f)) * kWeightScale + 0.5);
+    }
+    // Horizontal max filter: the mirror side tolerates a few pixels of asymmetry
+    // (one shift at a time each way: vector loops).
+    auto* m = mq_.ptr<std::int32_t>(r);
+    std::memcpy(m, q, static_cast<std::size_t>(cols) * sizeof(std::int32_t));
+    for (int d = 1; d <= tol && d < cols; ++d) {
+      for (int c = d; c < cols; ++c) m[c] = std::max(m[c], q[c - d]);
+      for (int c = 0; c + d < cols; ++c) m[c] = std::max(m[c], q[c + d]);
     }
   }
   weight_integral_ = scratch(wint_store_, rows + 1, cols + 1, CV_64FC1);
@@ -237,29 +276,7 @@ void SymmetryScanner::prepare(const cv::Mat& grey, const cv::Mat& weights) {
 
 void SymmetryScanner::prepareFast(const cv::Mat& grey, const cv::Mat& weights) {
   quantize(grey, weights);
-  // Row copies for the mirrored sums: forward, and reversed (column c at cols - 1 - c),
-  // so that both sides of an axis are read with increasing addresses.
-  const int rows = grey.rows;
-  const int cols = grey.cols;
-  g32_ = scratch(g32_store_, rows, cols, CV_32SC1);
-  wrev_ = scratch(wrev_store_, rows, cols, CV_32SC1);
-  mrev_ = scratch(mrev_store_, rows, cols, CV_32SC1);
-  grev_ = scratch(grev_store_, rows, cols, CV_32SC1);
-  for (int r = 0; r < rows; ++r) {
-    const auto* g = grey.ptr<std::uint8_t>(r);
-    const auto* w = wq_.ptr<std::int32_t>(r);
-    const auto* m = mq_.ptr<std::int32_t>(r);
-    auto* gf = g32_.ptr<std::int32_t>(r);
-    auto* wb = wrev_.ptr<std::int32_t>(r);
-    auto* mb = mrev_.ptr<std::int32_t>(r);
-    auto* gb = grev_.ptr<std::int32_t>(r);
-    for (int c = 0; c < cols; ++c) {
-      gf[c] = g[c];
-      wb[cols - 1 - c] = w[c];
-      mb[cols - 1 - c] = m[c];
-      gb[cols - 1 - c] = g[c];
-    }
-  }
+  grey_ = grey;  // read only, for this call
 }
 
 void SymmetryScanner::buildAxisReference(int axis, int max_half, int rows) {
@@ -422,13 +439,10 @@ bool SymmetryScanner::scanAxisFast(AxisTables& t, int axis, const SymmetrySearch
   t.sm.assign(width, 0);
   t.sab.assign(width, 0);
   const MirroredRow kernel = mirroredRow();
-  const int cols = wq_.cols;
-  const int left_start = cols - 1 - axis;  // reversed-row column of the axis
   std::size_t next = 0;
   for (int r = bottom; next < t.order.size(); --r) {
-    kernel(wrev_.ptr<std::int32_t>(r) + left_start, mrev_.ptr<std::int32_t>(r) + left_start,
-           grev_.ptr<std::int32_t>(r) + left_start, wq_.ptr<std::int32_t>(r) + axis, mq_.ptr<std::int32_t>(r) + axis,
-           g32_.ptr<std::int32_t>(r) + axis, widest, t.sm.data(), t.sab.data());
+    kernel(wq_.ptr<std::int32_t>(r), mq_.ptr<std::int32_t>(r), grey_.ptr<std::uint8_t>(r), axis, widest, t.sm.data(),
+           t.sab.data());
     while (next < t.order.size() && t.widths[t.order[next]].top == r) {
       AxisWidth& w = t.widths[t.order[next]];
       std::int64_t m = 0, ab = 0;

@@ -173,11 +173,9 @@ class SymmetryScanner {
   std::vector<std::int64_t> pe_, pm_, pa_, pb_, paa_, pbb_, pab_;
   std::size_t reference_width_ = 0;
   cv::Mat grey_u8_;  // the region's grey levels (reference)
-  // Fast path: CV_32S rows forward (g32_) and reversed (wrev_, mrev_, grev_).
-  cv::Mat g32_, wrev_, mrev_, grev_;
+  cv::Mat grey_;  // fast path: the region of the current call (a header, read only)
   // Storage behind the headers above, reused across calls.
-  std::vector<double> wq_store_, mq_store_, wint_store_, mint_store_, gint_store_, gsq_store_, colnz_store_,
-      g32_store_, wrev_store_, mrev_store_, grev_store_;
+  std::vector<double> wq_store_, mq_store_, wint_store_, mint_store_, gint_store_, gsq_store_, colnz_store_;
   std::vector<AxisTables> bands_;                // one per band of axes
   std::vector<SymmetryCandidate> axis_best_;     // per axis index: its best candidate ...
   std::vector<std::uint8_t> axis_found_;         // ... when it has one
