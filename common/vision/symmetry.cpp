@@ -1,6 +1,7 @@
 #include "vision/symmetry.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <string>
@@ -74,6 +75,8 @@ void SymmetryScanner::edgeWeights(const cv::Mat& grey, const cv::Mat& cluster_ma
     return i;
   };
   const float outside = cluster_mask.empty() ? 1.0f : params_.outside_cluster_edge_weight;
+  const std::uint32_t one_bits = std::bit_cast<std::uint32_t>(1.0f);
+  const std::uint32_t outside_bits = std::bit_cast<std::uint32_t>(outside);
   const float inv_full = 1.0f / (params_.full_weight_ratio * static_cast<float>(params_.edge_threshold));
   const int threshold = params_.edge_threshold;
   const int cols = grey.cols;
@@ -99,22 +102,19 @@ void SymmetryScanner::edgeWeights(const cv::Mat& grey, const cv::Mat& cluster_ma
     };
     pixel(0, left_col, cols > 1 ? 1 : right_col);
     // Interior columns: no border test, a branch-free body for the vectoriser.
-    if (m == nullptr) {
+    for (int c = 1; c < cols - 1; ++c) {
+      const int gx = (up[c + 1] + 2 * mid[c + 1] + down[c + 1]) - (up[c - 1] + 2 * mid[c - 1] + down[c - 1]);
+      const int gy = (down[c - 1] + 2 * down[c] + down[c + 1]) - (up[c - 1] + 2 * up[c] + up[c + 1]);
+      const int mag = std::abs(gx) + std::abs(gy);
+      const float strength = std::min(1.0f, static_cast<float>(mag) * inv_full);
+      w[c] = mag < threshold ? 0.0f : strength;
+    }
+    if (m != nullptr) {
+      // Times 1 inside the cluster, else `outside` (the same single product as in
+      // pixel()), the factor selected by bits: a second vector loop.
       for (int c = 1; c < cols - 1; ++c) {
-        const int gx = (up[c + 1] + 2 * mid[c + 1] + down[c + 1]) - (up[c - 1] + 2 * mid[c - 1] + down[c - 1]);
-        const int gy = (down[c - 1] + 2 * down[c] + down[c + 1]) - (up[c - 1] + 2 * up[c] + up[c + 1]);
-        const int mag = std::abs(gx) + std::abs(gy);
-        const float strength = std::min(1.0f, static_cast<float>(mag) * inv_full);
-        w[c] = mag < threshold ? 0.0f : strength;
-      }
-    } else {
-      for (int c = 1; c < cols - 1; ++c) {
-        const int gx = (up[c + 1] + 2 * mid[c + 1] + down[c + 1]) - (up[c - 1] + 2 * mid[c - 1] + down[c - 1]);
-        const int gy = (down[c - 1] + 2 * down[c] + down[c + 1]) - (up[c - 1] + 2 * up[c] + up[c + 1]);
-        const int mag = std::abs(gx) + std::abs(gy);
-        const float strength = std::min(1.0f, static_cast<float>(mag) * inv_full);
-        const float factor = m[c] != 0 ? 1.0f : outside;
-        w[c] = mag < threshold ? 0.0f : strength * factor;
+        const std::uint32_t inside = 0u - ((static_cast<std::uint32_t>(m[c]) + 255u) >> 8);  // all ones where m != 0
+        w[c] *= std::bit_cast<float>((inside & one_bits) | (~inside & outside_bits));
       }
     }
     if (cols > 1) pixel(cols - 1, cols - 2, right_col);
