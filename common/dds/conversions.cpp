@@ -220,12 +220,23 @@ void readFeatureFrame(const sg_idl_FeatureFrame& in, FeatureFrameData& out) {
   readImage(in.right, in.width, in.height, out.right, what, "right", true);
 }
 
-void encodeLabelsReference(const cv::Mat& labels, std::vector<std::uint8_t>& run_label,
-                           std::vector<std::uint32_t>& run_length) {
+namespace {
+
+// Empties the code; false when there is nothing to code. Throws on a non-CV_8UC1 image.
+bool startLabelCode(const cv::Mat& labels, std::vector<std::uint8_t>& run_label,
+                    std::vector<std::uint32_t>& run_length) {
   run_label.clear();
   run_length.clear();
-  if (labels.empty()) return;
+  if (labels.empty()) return false;
   if (labels.type() != CV_8UC1) throw InputError("label image must be CV_8UC1, got type " + str(labels.type()));
+  return true;
+}
+
+}  // namespace
+
+void encodeLabelsReference(const cv::Mat& labels, std::vector<std::uint8_t>& run_label,
+                           std::vector<std::uint32_t>& run_length) {
+  if (!startLabelCode(labels, run_label, run_length)) return;
   for (int y = 0; y < labels.rows; ++y) {
     const std::uint8_t* row = labels.ptr<std::uint8_t>(y);
     for (int x = 0; x < labels.cols; ++x) {
@@ -263,10 +274,7 @@ void encodeLabels(const cv::Mat& labels, std::vector<std::uint8_t>& run_label, s
     encodeLabelsReference(labels, run_label, run_length);
     return;
   }
-  run_label.clear();
-  run_length.clear();
-  if (labels.empty()) return;
-  if (labels.type() != CV_8UC1) throw InputError("label image must be CV_8UC1, got type " + str(labels.type()));
+  if (!startLabelCode(labels, run_label, run_length)) return;
   // A run may continue from the end of one row into the next.
   for (int y = 0; y < labels.rows; ++y) {
     const std::uint8_t* row = labels.ptr<std::uint8_t>(y);

@@ -15,6 +15,13 @@ namespace sg {
 
 namespace {
 
+// A box of half-width k and this height fits the search's height and aspect limits.
+bool admissible(const SymmetrySearch& search, int k, int height) {
+  if (height < search.min_height_px || height > search.max_height_px) return false;
+  const double aspect = static_cast<double>(height) / (2 * k + 1);
+  return aspect >= search.min_aspect && aspect <= search.max_aspect;
+}
+
 // Sum of a CV_64F integral image over rows [r0, r1] and columns [c0, c1] (inclusive).
 double boxSum(const cv::Mat& integral, int r0, int r1, int c0, int c1) {
   return integral.at<double>(r1 + 1, c1 + 1) - integral.at<double>(r0, c1 + 1) - integral.at<double>(r1 + 1, c0) +
@@ -415,10 +422,7 @@ bool SymmetryScanner::scanAxisFast(AxisTables& t, int axis, const SymmetrySearch
   int widest = -1;
   for (int k = kmin; k <= kmax; k += step) {
     const int top = findTop(axis - k, axis + k, bottom);
-    const int height = bottom - top + 1;
-    if (height < search.min_height_px || height > search.max_height_px) continue;
-    const double aspect = static_cast<double>(height) / (2 * k + 1);
-    if (aspect < search.min_aspect || aspect > search.max_aspect) continue;
+    if (!admissible(search, k, bottom - top + 1)) continue;
     t.widths.push_back({k, top, 0, 0});
     widest = k;
   }
@@ -501,10 +505,7 @@ void SymmetryScanner::computeImpl(const cv::Mat& grey, const cv::Mat& weights, c
       bool found = false;
       for (int k = kmin; k <= kmax; k += step) {
         const int top = findTop(axis - k, axis + k, bottom);
-        const int height = bottom - top + 1;
-        if (height < search.min_height_px || height > search.max_height_px) continue;
-        const double aspect = static_cast<double>(height) / (2 * k + 1);
-        if (aspect < search.min_aspect || aspect > search.max_aspect) continue;
+        if (!admissible(search, k, bottom - top + 1)) continue;
         const SymmetryCandidate c = evaluate(axis, k, top, bottom, referenceSums(k, top, bottom));
         if (!found || c.score > best.score) {
           best = c;
