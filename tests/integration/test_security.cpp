@@ -77,6 +77,20 @@ std::optional<int> makeTestPki(const Pki& pki, const std::string& log) {
   return make.waitFor(60s);
 }
 
+// The test PKI in `pki`, made by make-test-pki.sh (log in `log`): "" when made,
+// else why not; `unavailable` when openssl or the security plugins are missing.
+std::string preparePki(const Pki& pki, const std::string& log, bool& unavailable) {
+  unavailable = false;
+  if (pki.dir().empty()) return "cannot create a temporary folder";
+  const auto status = makeTestPki(pki, log);
+  if (!status.has_value()) return "make-test-pki.sh did not end";
+  if (*status == 77) {
+    unavailable = true;
+    return "DDS Security not available: " + test::tail(log, 3);
+  }
+  return *status == 0 ? std::string() : test::tail(log);
+}
+
 TEST(DdsSecurity, OnlyAuthorizedIdentitiesReadDetections) {
   test::useLoopbackDds();
   const std::string logs = SG_TEST_LOG_DIR;
@@ -155,14 +169,10 @@ TEST(DdsSecurity, StageWhoseIdentityLacksAGrantStopsWithStatus2NamingTheTopic) {
   test::useLoopbackDds();
   const std::string logs = SG_TEST_LOG_DIR;
   Pki pki;
-  ASSERT_FALSE(pki.dir().empty()) << "cannot create a temporary folder";
-  {
-    const std::string log = logs + "/security_stage_pki.log";
-    const auto status = makeTestPki(pki, log);
-    ASSERT_TRUE(status.has_value()) << "make-test-pki.sh did not end";
-    if (*status == 77) GTEST_SKIP() << "DDS Security not available: " << test::tail(log, 3);
-    ASSERT_EQ(*status, 0) << test::tail(log);
-  }
+  bool unavailable = false;
+  const std::string why = preparePki(pki, logs + "/security_stage_pki.log", unavailable);
+  if (unavailable) GTEST_SKIP() << why;
+  ASSERT_EQ(why, "");
   const std::string log = logs + "/security_stage_intruder.log";
   test::ChildProcess stage(
       {SG_FEATURES_EXE, "--config", std::string(SG_SOURCE_DIR) + "/config/features.yaml", "--frames", "1"},
@@ -184,14 +194,10 @@ TEST(DdsSecurity, ToolWhoseIdentityLacksAGrantStopsWithStatus2NamingTheTopic) {
   test::useLoopbackDds();
   const std::string logs = SG_TEST_LOG_DIR;
   Pki pki;
-  ASSERT_FALSE(pki.dir().empty()) << "cannot create a temporary folder";
-  {
-    const std::string log = logs + "/security_tool_pki.log";
-    const auto status = makeTestPki(pki, log);
-    ASSERT_TRUE(status.has_value()) << "make-test-pki.sh did not end";
-    if (*status == 77) GTEST_SKIP() << "DDS Security not available: " << test::tail(log, 3);
-    ASSERT_EQ(*status, 0) << test::tail(log);
-  }
+  bool unavailable = false;
+  const std::string why = preparePki(pki, logs + "/security_tool_pki.log", unavailable);
+  if (unavailable) GTEST_SKIP() << why;
+  ASSERT_EQ(why, "");
   const std::string log = logs + "/security_tool_intruder.log";
   test::ChildProcess tool({SG_STEREOGUARD_EXE, "record", "--out", pki.dir() + "/recording", "--frames", "1",
                            "--duration", "5"},
