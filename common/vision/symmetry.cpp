@@ -166,13 +166,18 @@ typedef std::int32_t I32x8 __attribute__((vector_size(32)));
 typedef std::uint8_t U8x4 __attribute__((vector_size(4)));
 typedef std::uint8_t U8x8 __attribute__((vector_size(8)));
 
+// Reverses the lanes of a vector (GCC and Clang). Through a reference: a 32-byte
+// vector passed by value to a function without the AVX target changes the ABI.
+[[gnu::always_inline]] inline void reverseLanes(I32x4& v) { v = __builtin_shufflevector(v, v, 3, 2, 1, 0); }
+[[gnu::always_inline]] inline void reverseLanes(I32x8& v) {
+  v = __builtin_shufflevector(v, v, 7, 6, 5, 4, 3, 2, 1, 0);
+}
+
 template <class I32, class U8>
 [[gnu::always_inline]] inline void mirroredRowImpl(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g,
                                                    int axis, int n, std::int32_t* sm, std::int32_t* sab) {
   constexpr int kLanes = sizeof(I32) / sizeof(std::int32_t);
   static_assert(sizeof(U8) == kLanes);
-  I32 reverse;
-  for (int i = 0; i < kLanes; ++i) reverse[i] = kLanes - 1 - i;
   // Loads and stores through memcpy: the rows and sums have no vector alignment.
   auto load = [](const auto* p, auto& v) { std::memcpy(&v, p, sizeof v); };
   const std::int32_t* wa = w + axis;
@@ -188,9 +193,10 @@ template <class I32, class U8>
     load(ma - j - (kLanes - 1), ml);
     load(ga + j, gr8);
     load(ga - j - (kLanes - 1), gl8);
-    wl = __builtin_shuffle(wl, reverse);
-    ml = __builtin_shuffle(ml, reverse);
-    const I32 gl = __builtin_shuffle(__builtin_convertvector(gl8, I32), reverse);
+    reverseLanes(wl);
+    reverseLanes(ml);
+    I32 gl = __builtin_convertvector(gl8, I32);
+    reverseLanes(gl);
     const I32 gr = __builtin_convertvector(gr8, I32);
     load(sm + j, s);
     load(sab + j, t);
