@@ -442,6 +442,61 @@ typedef std::int32_t I32x8 __attribute__((vector_size(32)));
   return true;
 }
 
+// One row of the fast path's mirrored sums, for pairs j = 1..n about the column
+// `axis` of the row's quantized weights w, their mirror m and grey levels g:
+//   sm[j] += w[axis - j] * m[axis + j] + m[axis - j] * w[axis + j]
+//   sab[j] += g[axis - j] * g[axis + j]
+// kLanes pairs per step: the left side is loaded below the axis and reversed
+// in the register. Exact integer arithmetic, so any grouping gives the same sums.
+typedef std::int32_t I32x4 __attribute__((vector_size(16)));
+typedef std::uint8_t U8x4 __attribute__((vector_size(4)));
+typedef std::uint8_t U8x8 __attribute__((vector_size(8)));
+
+// Reverses the lanes of a vector (GCC and Clang). Through a reference: a 32-byte
+// vector passed by value to a function without the AVX target changes the ABI.
+[[gnu::always_inline]] inline void reverseLanes(I32x4& v) { v = __builtin_shufflevector(v, v, 3, 2, 1, 0); }
+[[gnu::always_inline]] inline void reverseLanes(I32x8& v) {
+  v = __builtin_shufflevector(v, v, 7, 6, 5, 4, 3, 2, 1, 0);
+}
+
+template <class I32, class U8>
+[[gnu::always_inline]] inline void mirroredRowImpl(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g,
+                                                   int axis, int n, std::int32_t* sm, std::int32_t* sab) {
+  constexpr int kLanes = sizeof(I32) / sizeof(std::int32_t);
+  static_assert(sizeof(U8) == kLanes);
+  // Loads and stores through memcpy: the rows and sums have no vector alignment.
+  auto load = [](const auto* p, auto& v) { std::memcpy(&v, p, sizeof v); };
+  const std::int32_t* wa = w + axis;
+  const std::int32_t* ma = m + axis;
+  const std::uint8_t* ga = g + axis;
+  int j = 1;
+  for (; j + kLanes - 1 <= n; j += kLanes) {
+    I32 wr, mr, wl, ml, s, t;
+    U8 gr8, gl8;
+    load(wa + j, wr);
+    load(ma + j, mr);
+    load(wa - j - (kLanes - 1), wl);
+    load(ma - j - (kLanes - 1), ml);
+    load(ga + j, gr8);
+    load(ga - j - (kLanes - 1), gl8);
+    reverseLanes(wl);
+    reverseLanes(ml);
+    I32 gl = __builtin_convertvector(gl8, I32);
+    reverseLanes(gl);
+    const I32 gr = __builtin_convertvector(gr8, I32);
+    load(sm + j, s);
+    load(sab + j, t);
+    s += wl * mr + ml * wr;
+    t += gl * gr;
+    std::memcpy(sm + j, &s, sizeof s);
+    std::memcpy(sab + j, &t, sizeof t);
+  }
+  for (; j <= n; ++j) {
+    sm[j] += wa[-j] * ma[j] + ma[-j] * wa[j];
+    sab[j] += static_cast<std::int32_t>(ga[-j]) * static_cast<std::int32_t>(ga[j]);
+  }
+}
+
 // kFloats lanes: 8 in the AVX2 build, 4 in the baseline one (wider selections
 // there become scalar code through the stack).
 template <int kFloats>
@@ -522,6 +577,10 @@ template <int kFloats>
 [[gnu::target("avx2")]] bool kthSmallestAvx2(const int* counts, int n, int k, int previous, int max_steps, int& value) {
   return kthSmallestImpl(counts, n, k, previous, max_steps, value);
 }
+[[gnu::target("avx2")]] void mirroredRowAvx2(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g,
+                                             int axis, int n, std::int32_t* sm, std::int32_t* sab) {
+  mirroredRowImpl<I32x8, U8x8>(w, m, g, axis, n, sm, sab);
+}
 [[gnu::target("avx2")]] void markAvx2(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d0,
                                       int d1, int tol, std::uint8_t* marks) {
   markImpl(left, right, x0, x1, d0, d1, tol, marks);
@@ -540,6 +599,11 @@ void rowExcessBaseline(const int* counts, int median, int min_excess, int row, c
 
 bool kthSmallestBaseline(const int* counts, int n, int k, int previous, int max_steps, int& value) {
   return kthSmallestImpl(counts, n, k, previous, max_steps, value);
+}
+
+void mirroredRowBaseline(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g, int axis, int n,
+                         std::int32_t* sm, std::int32_t* sab) {
+  mirroredRowImpl<I32x4, U8x4>(w, m, g, axis, n, sm, sab);
 }
 
 void markBaseline(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d0, int d1, int tol,
@@ -632,6 +696,14 @@ bool kthSmallestFrom(const int* counts, int n, int k, int previous, int max_step
   if (useAvx2()) return kthSmallestAvx2(counts, n, k, previous, max_steps, value);
 #endif
   return kthSmallestBaseline(counts, n, k, previous, max_steps, value);
+}
+
+void mirroredRowSums(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g, int axis, int n,
+                     std::int32_t* sm, std::int32_t* sab) {
+#ifdef SG_SIMD_X86
+  if (useAvx2()) return mirroredRowAvx2(w, m, g, axis, n, sm, sab);
+#endif
+  mirroredRowBaseline(w, m, g, axis, n, sm, sab);
 }
 
 float houghWindowSums(const float* lo, const float* mid, const float* hi, int n, float* out) {

@@ -1,8 +1,9 @@
 #pragma once
-// Vector kernels shared by the correlation, the ground estimate and the
-// feature images. Integer arithmetic, except the Hough window sums, whose float
-// additions are the reference's, in its order, lane by lane: every kernel gives
-// exactly the results of its scalar reference. Written with the compiler's portable vector
+// Vector kernels shared by the correlation, the ground estimate, the feature
+// images, the obstacle loop and the symmetry scan. Integer arithmetic, except
+// the Hough window sums, whose float additions are the reference's, in its
+// order, lane by lane: every kernel gives exactly the results of its scalar
+// reference. Written with the compiler's portable vector
 // types; on x86-64 an AVX2 build of each kernel is picked at run time when the
 // processor has it, otherwise the baseline (SSE2) build runs.
 #include <cstdint>
@@ -66,6 +67,15 @@ void replaceRowExcess(const int* counts, int median, int min_excess, int row, co
 // counts of a row only decrease between two of its medians: a few vector passes instead of
 // a selection). Returns false, `value` unchanged, when it is neither.
 bool kthSmallestFrom(const int* counts, int n, int k, int previous, int max_steps, int& value);
+
+// Symmetry scan (SymmetryScanner), one row: for pairs j = 1..n about column `axis`
+// of a row of quantized edge weights w, their mirror m and grey levels g,
+//   sm[j] += w[axis - j] * m[axis + j] + m[axis - j] * w[axis + j]
+//   sab[j] += g[axis - j] * g[axis + j]
+// in 32-bit integers (the caller bounds the sums). The rows must be readable at
+// axis - n .. axis + n.
+void mirroredRowSums(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g, int axis, int n,
+                     std::int32_t* sm, std::int32_t* sab);
 
 // Hough 3x3 window sums (GroundEstimator): out[b] = 0.0f + lo[b - 1] + lo[b] +
 // lo[b + 1] + mid[b - 1] + mid[b] + mid[b + 1] + hi[b - 1] + hi[b] + hi[b + 1],

@@ -10,6 +10,7 @@
 
 #include "config/errors.hpp"
 #include "vision/parallel_bands.hpp"
+#include "vision/simd_match.hpp"
 
 namespace sg {
 
@@ -155,95 +156,18 @@ void integralOf(const cv::Mat& src, cv::Mat& dst) {
   }
 }
 
-// One row of the fast path's mirrored sums, for pairs j = 1..n about the column
-// `axis` of the row's quantized weights w, their mirror m and grey levels g:
-//   sm[j] += w[axis - j] * m[axis + j] + m[axis - j] * w[axis + j]
-//   sab[j] += g[axis - j] * g[axis + j]
-// kLanes pairs per step: the left side is loaded below the axis and reversed
-// in the register. Exact integer arithmetic, so any grouping gives the same sums.
-typedef std::int32_t I32x4 __attribute__((vector_size(16)));
-typedef std::int32_t I32x8 __attribute__((vector_size(32)));
-typedef std::uint8_t U8x4 __attribute__((vector_size(4)));
-typedef std::uint8_t U8x8 __attribute__((vector_size(8)));
-
-// Reverses the lanes of a vector (GCC and Clang). Through a reference: a 32-byte
-// vector passed by value to a function without the AVX target changes the ABI.
-[[gnu::always_inline]] inline void reverseLanes(I32x4& v) { v = __builtin_shufflevector(v, v, 3, 2, 1, 0); }
-[[gnu::always_inline]] inline void reverseLanes(I32x8& v) {
-  v = __builtin_shufflevector(v, v, 7, 6, 5, 4, 3, 2, 1, 0);
-}
-
-template <class I32, class U8>
-[[gnu::always_inline]] inline void mirroredRowImpl(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g,
-                                                   int axis, int n, std::int32_t* sm, std::int32_t* sab) {
-  constexpr int kLanes = sizeof(I32) / sizeof(std::int32_t);
-  static_assert(sizeof(U8) == kLanes);
-  // Loads and stores through memcpy: the rows and sums have no vector alignment.
-  auto load = [](const auto* p, auto& v) { std::memcpy(&v, p, sizeof v); };
-  const std::int32_t* wa = w + axis;
-  const std::int32_t* ma = m + axis;
-  const std::uint8_t* ga = g + axis;
-  int j = 1;
-  for (; j + kLanes - 1 <= n; j += kLanes) {
-    I32 wr, mr, wl, ml, s, t;
-    U8 gr8, gl8;
-    load(wa + j, wr);
-    load(ma + j, mr);
-    load(wa - j - (kLanes - 1), wl);
-    load(ma - j - (kLanes - 1), ml);
-    load(ga + j, gr8);
-    load(ga - j - (kLanes - 1), gl8);
-    reverseLanes(wl);
-    reverseLanes(ml);
-    I32 gl = __builtin_convertvector(gl8, I32);
-    reverseLanes(gl);
-    const I32 gr = __builtin_convertvector(gr8, I32);
-    load(sm + j, s);
-    load(sab + j, t);
-    s += wl * mr + ml * wr;
-    t += gl * gr;
-    std::memcpy(sm + j, &s, sizeof s);
-    std::memcpy(sab + j, &t, sizeof t);
-  }
-  for (; j <= n; ++j) {
-    sm[j] += wa[-j] * ma[j] + ma[-j] * wa[j];
-    sab[j] += static_cast<std::int32_t>(ga[-j]) * static_cast<std::int32_t>(ga[j]);
-  }
-}
-
-void mirroredRowBaseline(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g, int axis, int n,
-                         std::int32_t* sm, std::int32_t* sab) {
-  mirroredRowImpl<I32x4, U8x4>(w, m, g, axis, n, sm, sab);
-}
-
-#if defined(__x86_64__) || defined(__i386__)
-[[gnu::target("avx2")]] void mirroredRowAvx2(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g,
-                                             int axis, int n, std::int32_t* sm, std::int32_t* sab) {
-  mirroredRowImpl<I32x8, U8x8>(w, m, g, axis, n, sm, sab);
-}
-#endif
-
-using MirroredRow = void (*)(const std::int32_t*, const std::int32_t*, const std::uint8_t*, int, int, std::int32_t*,
-                             std::int32_t*);
-
-MirroredRow mirroredRow() {
-#if defined(__x86_64__) || defined(__i386__)
-  static const MirroredRow kernel = [] {
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") != 0 ? &mirroredRowAvx2 : &mirroredRowBaseline;
-  }();
-  return kernel;
-#else
-  return &mirroredRowBaseline;
-#endif
-}
-
 }  // namespace
 
-void SymmetryScanner::quantize(const cv::Mat& grey, const cv::Mat& weights) {
+void SymmetryScanner::prepare(const cv::Mat& grey, const cv::Mat& weights) {
   if (grey.type() != CV_8UC1 || weights.type() != CV_32FC1 || grey.size() != weights.size()) {
     throw InputError("symmetry: grey (CV_8UC1) and weights (CV_32FC1) must have the same size");
   }
+  // The mirrored sums are 32-bit: at most 2 kWeightScale^2 per row and pair.
+  if (grey.rows > kMaxRows) {
+    throw InputError("symmetry: region of " + std::to_string(grey.rows) + " rows is taller than the " +
+                     std::to_string(kMaxRows) + " rows the 32-bit sums allow");
+  }
+  grey_ = grey;  // read only, for this call
   const int rows = weights.rows;
   const int cols = weights.cols;
   wq_ = scratch(wq_store_, rows, cols, CV_32SC1);
@@ -282,16 +206,6 @@ void SymmetryScanner::quantize(const cv::Mat& grey, const cv::Mat& weights) {
   }
 }
 
-void SymmetryScanner::prepare(const cv::Mat& grey, const cv::Mat& weights) {
-  quantize(grey, weights);
-  grey.copyTo(grey_u8_);
-}
-
-void SymmetryScanner::prepareFast(const cv::Mat& grey, const cv::Mat& weights) {
-  quantize(grey, weights);
-  grey_ = grey;  // read only, for this call
-}
-
 void SymmetryScanner::buildAxisReference(int axis, int max_half, int rows) {
   // Seven prefix tables over half-widths k and rows r, in exact integers:
   //   t(k, r + 1) = t(k, r) + t(k - 1, r + 1) - t(k - 1, r) + v(k, r).
@@ -310,8 +224,8 @@ void SymmetryScanner::buildAxisReference(int axis, int max_half, int rows) {
       const std::int64_t wr = wq_.at<std::int32_t>(r, cr);
       const std::int64_t ml = mq_.at<std::int32_t>(r, cl);
       const std::int64_t mr = mq_.at<std::int32_t>(r, cr);
-      const std::int64_t a = grey_u8_.at<std::uint8_t>(r, cl);
-      const std::int64_t b = grey_u8_.at<std::uint8_t>(r, cr);
+      const std::int64_t a = grey_.at<std::uint8_t>(r, cl);
+      const std::int64_t b = grey_.at<std::uint8_t>(r, cr);
       const std::int64_t values[7] = {wl + wr, wl * mr + ml * wr, a, b, a * a, b * b, a * b};
       std::vector<std::int64_t>* tables[7] = {&pe_, &pm_, &pa_, &pb_, &paa_, &pbb_, &pab_};
       for (int i = 0; i < 7; ++i) {
@@ -448,11 +362,10 @@ bool SymmetryScanner::scanAxisFast(AxisTables& t, int axis, const SymmetrySearch
   const auto width = static_cast<std::size_t>(widest) + 1;
   t.sm.assign(width, 0);
   t.sab.assign(width, 0);
-  const MirroredRow kernel = mirroredRow();
   std::size_t next = 0;
   for (int r = bottom; next < t.order.size(); --r) {
-    kernel(wq_.ptr<std::int32_t>(r), mq_.ptr<std::int32_t>(r), grey_.ptr<std::uint8_t>(r), axis, widest, t.sm.data(),
-           t.sab.data());
+    simd::mirroredRowSums(wq_.ptr<std::int32_t>(r), mq_.ptr<std::int32_t>(r), grey_.ptr<std::uint8_t>(r), axis, widest,
+                          t.sm.data(), t.sab.data());
     while (next < t.order.size() && t.widths[t.order[next]].top == r) {
       AxisWidth& w = t.widths[t.order[next]];
       std::int64_t m = 0, ab = 0;
@@ -489,13 +402,7 @@ bool SymmetryScanner::scanAxisFast(AxisTables& t, int axis, const SymmetrySearch
 void SymmetryScanner::computeImpl(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
                                   std::vector<SymmetryCandidate>& out, bool reference, int bands) {
   out.clear();
-  // The mirrored sums are 32-bit: at most 2 kWeightScale^2 per row and pair.
-  if (grey.rows > kMaxRows) {
-    throw InputError("symmetry: region of " + std::to_string(grey.rows) + " rows is taller than the " +
-                     std::to_string(kMaxRows) + " rows the 32-bit sums allow");
-  }
-  if (reference) prepare(grey, weights);
-  else prepareFast(grey, weights);
+  prepare(grey, weights);
   const int cols = grey.cols;
   const int bottom = std::clamp(search.bottom_row, 0, grey.rows - 1);
   const int rows = bottom + 1;
@@ -551,7 +458,6 @@ SymmetryCandidate SymmetryScanner::measure(const cv::Mat& grey, const cv::Mat& w
       top > bottom || half_width < 1) {
     throw InputError("symmetry: box outside the region");
   }
-  if (grey.rows > kMaxRows) throw InputError("symmetry: region taller than " + std::to_string(kMaxRows) + " rows");
   prepare(grey, weights);
   buildAxisReference(axis_col, half_width, bottom + 1);
   return evaluate(axis_col, half_width, top, bottom, referenceSums(half_width, top, bottom));

@@ -147,10 +147,9 @@ class SymmetryScanner {
     std::vector<std::int32_t> sm, sab;  // per pair j: mirrored edge products, grey products, rows [r, bottom]
   };
 
-  // Quantized weights, their mirror (max over +-mirror_tolerance_px), integrals, column counts.
-  void quantize(const cv::Mat& grey, const cv::Mat& weights);
+  // For both paths: the region's quantized weights, their mirror (max over
+  // +-mirror_tolerance_px), integrals and column counts, and a header of `grey`.
   void prepare(const cv::Mat& grey, const cv::Mat& weights);
-  void prepareFast(const cv::Mat& grey, const cv::Mat& weights);
   void computeImpl(const cv::Mat& grey, const cv::Mat& weights, const SymmetrySearch& search,
                    std::vector<SymmetryCandidate>& out, bool reference, int bands);
   // Best candidate of one axis (fast path); false when no width is admissible there.
@@ -172,8 +171,7 @@ class SymmetryScanner {
   // reference_width_), summed over pairs j <= k and rows < r.
   std::vector<std::int64_t> pe_, pm_, pa_, pb_, paa_, pbb_, pab_;
   std::size_t reference_width_ = 0;
-  cv::Mat grey_u8_;  // the region's grey levels (reference)
-  cv::Mat grey_;  // fast path: the region of the current call (a header, read only)
+  cv::Mat grey_;  // the region of the current call (a header, read only)
   // Storage behind the headers above, reused across calls.
   std::vector<double> wq_store_, mq_store_, wint_store_, mint_store_, gint_store_, gsq_store_, colnz_store_;
   std::vector<AxisTables> bands_;                // one per band of axes
