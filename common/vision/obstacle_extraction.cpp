@@ -552,6 +552,17 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
             flood_.push_back(j * gw + i);
           }
       }
+      // The columns stay within the histogram's lateral borders. Beside an object the flood
+      // reaches cells of chance matches: left of it in the band the right camera cannot see
+      // (as wide as its offset minus the offset behind it), and streaked texture on either
+      // side; they widen a narrow person's box by up to half its width. (A plainly coloured
+      // object whose far outline lies beyond the histogram's border is cut at the border.)
+      x0 = std::max(x0, cx.lo);
+      x1 = std::min(x1, cx.hi);
+      if (x1 < x0) {
+        rejectCandidate(cv::Rect(cx.lo, cy.lo, cx.hi - cx.lo + 1, cy.hi - cy.lo + 1));
+        continue;
+      }
     } else {
       for (int x = x0; x <= x1; ++x) cluster_matches += col_hist_[static_cast<std::size_t>(x)];
     }

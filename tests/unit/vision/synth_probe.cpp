@@ -68,9 +68,16 @@ int main(int argc, char** argv) {
       cv::cvtColor(pair.left, canvas, cv::COLOR_GRAY2BGR);
       for (int y = 0; y < canvas.rows; ++y)
         for (int x = 0; x < canvas.cols; ++x)
-          if (r.labels.at<std::uint8_t>(y, x) >= kLabelFirstObstacle) canvas.at<cv::Vec3b>(y, x) = {255, 0, 255};
+          switch (r.labels.at<std::uint8_t>(y, x)) {
+            case kLabelNone: break;
+            case kLabelUnassigned: canvas.at<cv::Vec3b>(y, x) = {255, 255, 255}; break;
+            case kLabelGround: canvas.at<cv::Vec3b>(y, x) = {255, 128, 0}; break;
+            case kLabelBackground: canvas.at<cv::Vec3b>(y, x) = {0, 160, 0}; break;
+            default: canvas.at<cv::Vec3b>(y, x) = {255, 0, 255};
+          }
     }
     std::vector<int> used(r.obstacles.size(), 0);
+    std::vector<cv::Rect> missed;
     for (std::size_t k = 0; k < t.objects.size(); ++k) {
       const ObjectLabel& o = t.objects[k];
       const cv::Rect box(cv::Point(static_cast<int>(o.box[0]), static_cast<int>(o.box[1])),
@@ -88,6 +95,7 @@ int main(int argc, char** argv) {
       const double d_surface = test::visibleDisparityMedian(t.disparity, t.object_id, k);
       for (const ObstacleCluster& c : r.obstacles) hit = hit || test::clusterFindsObject(c, box, d_true, d_surface);
       if (want) { ++wanted; found += hit; }
+      if (!hit && t.object_visible_px[k] > 0 && (want || o.type == "Pedestrian")) missed.push_back(box);
       if (draw_dir && t.object_visible_px[k] > 0) {
         cv::rectangle(canvas, box, want ? cv::Scalar(0, 255, 0) : cv::Scalar(0, 255, 255), 1);
         cv::putText(canvas, std::to_string(static_cast<int>(std::lround(d_true))), box.tl() + cv::Point(0, -2),
@@ -114,7 +122,16 @@ int main(int argc, char** argv) {
       std::printf("   found d %d [%d-%d] box [%d %d %d %d] feat %d on-objects %d %s\n", ob.offset_px, ob.min_offset_px, ob.max_offset_px, ob.box.x, ob.box.y,
                   ob.box.x + ob.box.width - 1, ob.box.y + ob.box.height - 1, ob.feature_count, on_objects, spur ? "SPURIOUS" : "");
     }
-    if (draw_dir) cv::imwrite(std::string(draw_dir) + "/seed" + std::to_string(seed) + ".png", canvas);
+    if (draw_dir) {
+      cv::imwrite(std::string(draw_dir) + "/seed" + std::to_string(seed) + ".png", canvas);
+      // A 4x zoom of every missed object, with 24 pixels around it.
+      for (std::size_t k = 0; k < missed.size(); ++k) {
+        const cv::Rect roi = (missed[k] + cv::Size(48, 48) - cv::Point(24, 24)) & cv::Rect(0, 0, canvas.cols, canvas.rows);
+        cv::Mat zoom;
+        cv::resize(canvas(roi), zoom, {}, 4, 4, cv::INTER_NEAREST);
+        cv::imwrite(std::string(draw_dir) + "/seed" + std::to_string(seed) + "_miss" + std::to_string(k) + ".png", zoom);
+      }
+    }
   }
   std::printf("found %d / %d, spurious %d over %d frames\n", found, wanted, spurious, n);
 }
