@@ -32,6 +32,19 @@ inline bool matchAt(const std::uint8_t* l, const std::uint8_t* r, int x, int d0,
   return false;
 }
 
+// Number of ones in the 0/1 bytes p[0, n): eight bytes at a time (each byte of the product's
+// top byte sums the eight, at most 8).
+int countOnes(const std::uint8_t* p, int n) {
+  int sum = 0, x = 0;
+  for (; x + 8 <= n; x += 8) {
+    std::uint64_t v;
+    std::memcpy(&v, p + x, sizeof v);
+    sum += static_cast<int>((v * 0x0101010101010101ull) >> 56);
+  }
+  for (; x < n; ++x) sum += p[x];
+  return sum;
+}
+
 double overlapOfSmaller(const cv::Rect& a, const cv::Rect& b) {
   const double inter = (a & b).area();
   const double smaller = std::min(a.area(), b.area());
@@ -452,7 +465,11 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       for (int y = 0; y <= limit; ++y) {
         const std::uint8_t* mk = maskRow(candidate_masks_, remaining, right, y, cx.lo, cx.hi + 1);
         int sum = 0;
-        for (int x = cx.lo; x <= cx.hi; ++x) sum += y <= lim[x] ? mk[x] : 0;
+        if (y <= stripe_floor) {  // every column shows this row
+          sum = countOnes(mk + cx.lo, cx.hi - cx.lo + 1);
+        } else {
+          for (int x = cx.lo; x <= cx.hi; ++x) sum += y <= lim[x] ? mk[x] : 0;
+        }
         row_hist_[static_cast<std::size_t>(y)] = static_cast<float>(sum);
       }
       cy = extent(row_hist_, 0, limit, 0, limit);
