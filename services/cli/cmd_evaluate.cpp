@@ -22,6 +22,7 @@
 #include "io/result_json.hpp"
 #include "report_html.hpp"
 #include "vision/detector.hpp"
+#include "vision/human_scoring.hpp"
 
 namespace sg::cli {
 
@@ -39,19 +40,6 @@ struct EvaluateOptions {
   int gallery = 12;
   bool fit_score = false;
 };
-
-std::vector<ScoredBox> toScored(const std::vector<HumanDetection>& humans) {
-  std::vector<ScoredBox> out;
-  for (const auto& h : humans) {
-    ScoredBox b;
-    b.box = {h.box.x, h.box.y, h.box.x + h.box.width, h.box.y + h.box.height};
-    b.score = h.score;
-    b.distance_m = std::isfinite(h.distance_m) && h.distance_m > 0.0f ? static_cast<double>(h.distance_m)
-                                                                      : std::numeric_limits<double>::quiet_NaN();
-    out.push_back(b);
-  }
-  return out;
-}
 
 // OpenCV's people detector over the whole left image (the baseline without
 // stereo). The 64x128 window holds a person about 96 x 48 pixels: the box is
@@ -183,7 +171,7 @@ void runEvaluate(const EvaluateOptions& o) {
         samples.push_back({static_cast<double>(h.symmetry), static_cast<double>(h.shape_score), positive});
       }
     }
-    const FrameEvaluation& fe = ours.addFrame(pair.id, pair.labels, toScored(humans));
+    const FrameEvaluation& fe = ours.addFrame(pair.id, pair.labels, toScoredBoxes(humans));
     const FrameEvaluation* fh = nullptr;
     if (o.hog) fh = &baseline.addFrame(pair.id, pair.labels, hogFullFrame(hog, pair.left, o.hog_upscale));
     int tp = 0, fp = 0;

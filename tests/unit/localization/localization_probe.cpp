@@ -7,8 +7,9 @@
 
 #include "config/yaml_params.hpp"
 #include "io/evaluation.hpp"
-#include "io/synthetic_scene.hpp"
 #include "vision/detector.hpp"
+#include "synthetic_detection.hpp"
+#include "vision/human_scoring.hpp"
 
 using namespace sg;
 
@@ -33,10 +34,9 @@ int main(int argc, char** argv) {
   int missed = 0, no_cluster = 0, loose = 0, low_score = 0;
   for (int i = 0; i < n; ++i) {
     const std::uint64_t seed = first + static_cast<std::uint64_t>(i);
-    const StereoPair pair = renderSyntheticScene(randomSceneParams(seed), seed);
-    detector.reset();
-    DetectionResult result;
-    detector.compute(pair.left, pair.right, pair.rig, 0.0, result);
+    const test::SeedDetection run = test::detectSyntheticSeed(detector, seed);
+    const StereoPair& pair = run.pair;
+    const DetectionResult& result = run.result;
     for (std::size_t k = 0; k < pair.labels.size(); ++k) {
       const ObjectLabel& l = pair.labels[k];
       if (!evaluator.isCounted(l)) continue;
@@ -66,14 +66,7 @@ int main(int argc, char** argv) {
                   static_cast<unsigned long long>(seed), l.location_m[2], truth.height, truth.width, l.occlusion, l.truncation,
                   best, best_score, cluster_cover, cluster_iou, cluster_offset, why);
     }
-    std::vector<ScoredBox> scored;
-    for (const HumanDetection& h : result.humans) {
-      ScoredBox b;
-      b.box = {h.box.x, h.box.y, h.box.x + h.box.width, h.box.y + h.box.height};
-      b.score = h.score;
-      scored.push_back(b);
-    }
-    const FrameEvaluation& fe = evaluator.addFrame(pair.id, pair.labels, scored);
+    const FrameEvaluation& fe = evaluator.addFrame(pair.id, pair.labels, toScoredBoxes(result.humans));
     for (const ScoredDetection& d : fe.detections)
       if (d.outcome == Outcome::kFalsePositive && d.detection.score >= 0.5)
         std::printf("seed %llu FP score %.2f box [%.0f %.0f %.0f %.0f]\n", static_cast<unsigned long long>(seed),

@@ -21,6 +21,8 @@
 #include "io/evaluation.hpp"
 #include "io/synthetic_scene.hpp"
 #include "vision/detector.hpp"
+#include "synthetic_detection.hpp"
+#include "vision/human_scoring.hpp"
 
 namespace sg {
 namespace {
@@ -32,18 +34,6 @@ int seedCount() {
   return env != nullptr ? std::max(1, std::atoi(env)) : 100;
 }
 
-std::vector<ScoredBox> toScored(const std::vector<HumanDetection>& humans) {
-  std::vector<ScoredBox> out;
-  for (const auto& h : humans) {
-    ScoredBox b;
-    b.box = {h.box.x, h.box.y, h.box.x + h.box.width, h.box.y + h.box.height};
-    b.score = h.score;
-    b.distance_m = h.distance_m;
-    out.push_back(b);
-  }
-  return out;
-}
-
 void runStatistics(int n, bool check_recall) {
   DetectorParams params;
   params.tracking = false;  // independent single frames
@@ -52,12 +42,8 @@ void runStatistics(int n, bool check_recall) {
   std::vector<double> bottom_errors;
   const auto start = std::chrono::steady_clock::now();
   for (int i = 0; i < n; ++i) {
-    const std::uint64_t seed = kFirstTestSeed + static_cast<std::uint64_t>(i);
-    const StereoPair pair = renderSyntheticScene(randomSceneParams(seed), seed);
-    detector.reset();
-    DetectionResult result;
-    detector.compute(pair.left, pair.right, pair.rig, 0.0, result);
-    const auto& fe = evaluator.addFrame(pair.id, pair.labels, toScored(result.humans));
+    const test::SeedDetection run = test::detectSyntheticSeed(detector, kFirstTestSeed + static_cast<std::uint64_t>(i));
+    const auto& fe = evaluator.addFrame(run.pair.id, run.pair.labels, toScoredBoxes(run.result.humans));
     for (const auto& d : fe.detections) {
       if (d.outcome == Outcome::kTruePositive) bottom_errors.push_back(std::abs(d.bottom_error_px));
     }
