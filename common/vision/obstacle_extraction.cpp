@@ -230,29 +230,35 @@ void ObstacleExtractor::offsetHistogram(const cv::Mat& matches, const GroundProf
   for (int d = 0; d < offsets; ++d) offset_hist_[static_cast<std::size_t>(d)] = static_cast<float>(sum[d]);
 }
 
-ObstacleExtractor::Extent ObstacleExtractor::extent(const std::vector<float>& hist, int lo, int hi, int peak_lo,
-                                                    int peak_hi) {
+template <class Hist>
+ObstacleExtractor::Extent ObstacleExtractor::extentOf(const Hist& hist, int lo, int hi, int peak_lo,
+                                                      int peak_hi) const {
   Extent e;
   if (hi < lo) return e;
   const int r = params_.smooth_px;
-  smooth_.assign(hist.size(), 0.0f);
-  for (int i = lo; i <= hi; ++i) {
+  // Box-filtered bin i: the same additions in the same order wherever it is asked for.
+  auto smooth = [&](int i) {
     float s = 0.0f;
-    for (int k = std::max(lo, i - r); k <= std::min(hi, i + r); ++k) s += hist[static_cast<std::size_t>(k)];
-    smooth_[static_cast<std::size_t>(i)] = s;
-  }
+    for (int k = std::max(lo, i - r); k <= std::min(hi, i + r); ++k) s += hist(k);
+    return s;
+  };
   peak_lo = std::max(peak_lo, lo);
   peak_hi = std::min(peak_hi, hi);
   if (peak_hi < peak_lo) return e;
   int peak = peak_lo;
-  for (int i = peak_lo; i <= peak_hi; ++i)
-    if (smooth_[static_cast<std::size_t>(i)] > smooth_[static_cast<std::size_t>(peak)]) peak = i;
-  const float top = smooth_[static_cast<std::size_t>(peak)];
+  float top = smooth(peak_lo);
+  for (int i = peak_lo + 1; i <= peak_hi; ++i) {
+    const float v = smooth(i);
+    if (v > top) {
+      top = v;
+      peak = i;
+    }
+  }
   if (top <= 0.0f) return e;
   const float thr = static_cast<float>(params_.extent_fraction) * top;
   int a = peak, b = peak, gap = 0;
   for (int i = peak - 1; i >= lo; --i) {
-    if (smooth_[static_cast<std::size_t>(i)] >= thr) {
+    if (smooth(i) >= thr) {
       a = i;
       gap = 0;
     } else if (++gap > params_.gap_px) {
@@ -261,7 +267,7 @@ ObstacleExtractor::Extent ObstacleExtractor::extent(const std::vector<float>& hi
   }
   gap = 0;
   for (int i = peak + 1; i <= hi; ++i) {
-    if (smooth_[static_cast<std::size_t>(i)] >= thr) {
+    if (smooth(i) >= thr) {
       b = i;
       gap = 0;
     } else if (++gap > params_.gap_px) {
@@ -269,11 +275,16 @@ ObstacleExtractor::Extent ObstacleExtractor::extent(const std::vector<float>& hi
     }
   }
   // Smoothing widens the extent by up to smooth_px: shrink to the raw evidence.
-  while (a < b && hist[static_cast<std::size_t>(a)] <= 0.0f) ++a;
-  while (b > a && hist[static_cast<std::size_t>(b)] <= 0.0f) --b;
+  while (a < b && hist(a) <= 0.0f) ++a;
+  while (b > a && hist(b) <= 0.0f) --b;
   e.lo = a;
   e.hi = b;
   return e;
+}
+
+ObstacleExtractor::Extent ObstacleExtractor::extent(const std::vector<float>& hist, int lo, int hi, int peak_lo,
+                                                    int peak_hi) {
+  return extentOf([&hist](int i) { return hist[static_cast<std::size_t>(i)]; }, lo, hi, peak_lo, peak_hi);
 }
 
 void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const GroundProfile& ground,
@@ -473,9 +484,56 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         row_hist_[static_cast<std::size_t>(y)] = static_cast<float>(sum);
       }
       cy = extent(row_hist_, 0, limit, 0, limit);
-      if (cy.hi >= cy.lo) {
+      if (cy.hi >= cy.lo && !fast_) {
         columnHistogram(cy.lo, cy.hi, false);
         cx = extent(col_hist_, 0, cols - 1, cx.lo, cx.hi);
+      } else if (cy.hi >= cy.lo) {
+        // The same columns over the rows cy.lo..cy.hi, summed only where the extent looks:
+        // around the first borders and as far as its walk outwards goes, in blocks.
+        const int ya = cy.lo, yb = cy.hi;
+        int done_lo = cols, done_hi = -1;  // columns summed so far: [done_lo, done_hi]
+        col_hist_.resize(static_cast<std::size_t>(cols));
+        auto sumColumns = [&](int a, int b) {  // a..b, disjoint from the columns done
+          for (int x = a; x <= b; ++x) col_count_[static_cast<std::size_t>(x)] = 0;
+          std::uint16_t* h = col_count_.data();
+          for (int y = ya; y <= yb; ++y) {
+            const std::uint8_t* mk = maskRow(candidate_masks_, remaining, right, y, a, b + 1);
+            if (y <= stripe_floor) {
+              for (int x = a; x <= b; ++x) h[x] = static_cast<std::uint16_t>(h[x] + mk[x]);
+            } else {
+              for (int x = a; x <= b; ++x) h[x] = static_cast<std::uint16_t>(h[x] + (y <= lim[x] ? mk[x] : 0));
+            }
+          }
+          for (int x = a; x <= b; ++x) col_hist_[static_cast<std::size_t>(x)] = static_cast<float>(h[x]);
+        };
+        constexpr int kBlock = 32;
+        auto column = [&](int x) {
+          if (x < done_lo || x > done_hi) {
+            int a = x, b = x;
+            if (done_hi < done_lo) {
+              a = std::max(0, x - kBlock);
+              b = std::min(cols - 1, x + kBlock);
+            } else if (x < done_lo) {
+              a = std::max(0, std::min(x, done_lo - kBlock));
+              b = done_lo - 1;
+            } else {
+              a = done_hi + 1;
+              b = std::min(cols - 1, std::max(x, done_hi + kBlock));
+            }
+            sumColumns(a, b);
+            done_lo = std::min(done_lo, a);
+            done_hi = std::max(done_hi, b);
+          }
+          return col_hist_[static_cast<std::size_t>(x)];
+        };
+        const int smooth = params_.smooth_px;
+        sumColumns(std::max(0, cx.lo - smooth), std::min(cols - 1, cx.hi + smooth));
+        done_lo = std::max(0, cx.lo - smooth);
+        done_hi = std::min(cols - 1, cx.hi + smooth);
+        cx = extentOf(column, 0, cols - 1, cx.lo, cx.hi);
+        // Columns the extent did not look at are not used below: they read as no evidence.
+        for (int x = 0; x < done_lo; ++x) col_hist_[static_cast<std::size_t>(x)] = 0.0f;
+        for (int x = done_hi + 1; x < cols; ++x) col_hist_[static_cast<std::size_t>(x)] = 0.0f;
       }
     }
     if (cx.hi < cx.lo || cy.hi < cy.lo) {

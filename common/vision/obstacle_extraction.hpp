@@ -125,6 +125,10 @@ class ObstacleExtractor {
   void offsetHistogram(const cv::Mat& matches, const GroundProfile& ground);
   // Extent around the strongest bin of `hist` within [peak_lo, peak_hi], limited to [lo, hi].
   Extent extent(const std::vector<float>& hist, int lo, int hi, int peak_lo, int peak_hi);
+  // extent() over a histogram read through `hist(i)`, which is asked only for the bins the
+  // smoothing, the peak search and the walk outwards from it look at.
+  template <class Hist>
+  Extent extentOf(const Hist& hist, int lo, int hi, int peak_lo, int peak_hi) const;
   int rowLimit(int offset) const;  // last row counted in the offset histogram (most permissive column)
   int firstRowReaching(float offset) const;  // first row whose ground offset reaches `offset`, rows when none
   float groundRelative(int offset, int x) const;  // `offset` in column x as a ground offset at the reference column
@@ -163,7 +167,6 @@ class ObstacleExtractor {
   std::vector<int> row_values_;
   std::vector<float> col_hist_;
   std::vector<float> row_hist_;
-  std::vector<float> smooth_;
   std::vector<int> col_offset_;      // per column: the offset the cluster matched it at
   RowMasks candidate_masks_;         // matches at the current candidate's offset
   RowMasks growth_masks_;            // matches at the offset a wall is grown over
