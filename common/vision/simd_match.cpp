@@ -65,6 +65,32 @@ constexpr SplatTable kSplats = makeSplatTable();
   return __builtin_convertvector((b - lo) <= width, U8x32);
 }
 
+// matchMask's range for each lane of a: lo = max(a - tol, 1) and width = min(a + tol, 255) - lo,
+// with vtol = tol and vtop = 255 - tol in every lane (saturating arithmetic on bytes).
+[[gnu::always_inline]] inline void matchRange(const U8x32& a, const U8x32& vtol, const U8x32& vtop, U8x32& lo, U8x32& width) {
+  const U8x32 zero{};
+  const U8x32 one = zero + 1;
+  lo = a > vtol ? a - vtol : zero;
+  lo = lo < one ? one : lo;
+  const U8x32 hi = a > vtop ? zero + 255 : a + vtol;
+  width = hi - lo;
+}
+
+// Calls vec(x) for whole vectors x = a, a + kLanes, ... inside [a, b), then for the rest either
+// vec(b - kLanes), a last vector overlapping the one before (for callers whose results do not
+// change when a pixel is done twice), or, when [a, b) is shorter than a vector, scalar(x) for
+// each pixel left.
+template <class Vector, class Scalar>
+[[gnu::always_inline]] inline void forVectors(int a, int b, Vector vec, Scalar scalar) {
+  int x = a;
+  for (; x + kLanes <= b; x += kLanes) vec(x);
+  if (x < b && b - kLanes >= a) {
+    vec(b - kLanes);
+    x = b;
+  }
+  for (; x < b; ++x) scalar(x);
+}
+
 // Gathers into idx the x in [x, x1) with left[x] != 0 (and skip[x] == 0 when skip
 // is not null), branch-free, until x1 or until idx holds kMaxGather - 7 or more;
 // returns how many and advances x. Eight pixels whose left bytes are all zero
@@ -223,17 +249,15 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
                                             int d0, int d1, int tol, std::uint8_t* marks) {
   const U8x32 vtol = splat(tol);
   const U8x32 vtop = splat(255 - tol);
-  const U8x32 one = splat(1);
   const U8x32 zero{};
   for (int d = d0; d <= d1; ++d) {
     int x = std::max(x0, d);
     for (; x + kLanes <= x1; x += kLanes) {
       const U8x32 a = load(left + x);
       const U8x32 b = load(right + x - d);
-      U8x32 lo = a > vtol ? a - vtol : zero;  // saturating a - tol, then at least 1
-      lo = lo < one ? one : lo;
-      const U8x32 hi = a > vtop ? splat(255) : a + vtol;  // saturating a + tol
-      const U8x32 m = matchMask(b, lo, hi - lo) & __builtin_convertvector(a != zero, U8x32);
+      U8x32 lo, width;
+      matchRange(a, vtol, vtop, lo, width);
+      const U8x32 m = matchMask(b, lo, width) & __builtin_convertvector(a != zero, U8x32);
       U8x32 old = load(marks + x);
       old |= m;
       std::memcpy(marks + x, &old, sizeof(old));
@@ -280,24 +304,17 @@ template <int N>
   // The last vector may overlap the one before it (same values written twice).
   auto qVector = [&](int j) __attribute__((always_inline)) {
     const U8x32 a = load(left + j);
-    U8x32 lo = a > vtol ? a - vtol : zero;
-    lo = lo < one ? one : lo;
-    const U8x32 hi = a > vtop ? splat(255) : a + vtol;
-    const U8x32 w = hi - lo;
+    U8x32 lo, w;
+    matchRange(a, vtol, vtop, lo, w);
     const U8x32 absent = __builtin_convertvector(a == zero, U8x32);
     for (int i = 0; i < N; ++i) {
       const U8x32 ok = matchMask(load(right + j - d - i), lo, w) | absent;
       std::memcpy(q[i] + (j - qlo), &ok, sizeof(ok));
     }
   };
-  int j = ja_all;
-  for (; j + kLanes <= jw; j += kLanes) qVector(j);
-  if (j < jw && jw - kLanes >= ja_all) {
-    qVector(jw - kLanes);
-    j = jw;
-  }
-  for (; j < jw; ++j)
+  forVectors(ja_all, jw, qVector, [&](int j) __attribute__((always_inline)) {
     for (int i = 0; i < N; ++i) qScalar(i, j);
+  });
   // Windows, ORed over the offsets; ORing a pixel's result twice changes nothing: the last
   // vector may overlap too. Pixel x matches at offset d + i only from x = d + i on.
   auto outScalar = [&](int i, int x) __attribute__((always_inline)) {
@@ -320,14 +337,9 @@ template <int N>
   const int xa_all = std::max(x0, d + N - 1);
   for (int i = 0; i + 1 < N; ++i)
     for (int x = std::max(x0, d + i); x < std::min(xa_all, x1); ++x) outScalar(i, x);
-  int x = xa_all;
-  for (; x + kLanes <= x1; x += kLanes) outVector(x);
-  if (x < x1 && x1 - kLanes >= xa_all) {
-    outVector(x1 - kLanes);
-    x = x1;
-  }
-  for (; x < x1; ++x)
+  forVectors(xa_all, x1, outVector, [&](int x) __attribute__((always_inline)) {
     for (int i = 0; i < N; ++i) outScalar(i, x);
+  });
 }
 
 [[gnu::always_inline]] inline void windowMatchImpl(const std::uint8_t* left, const std::uint8_t* right, int width,
