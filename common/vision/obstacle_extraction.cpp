@@ -447,26 +447,27 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     const int stripe_floor = *std::min_element(col_limit_.begin(), col_limit_.end());
     auto inStripe = [&](int y, int x) { return y <= col_limit_[static_cast<std::size_t>(x)]; };
     // Matches inside the stripe (a match implies a left feature) counted per column over rows.
-    auto columnHistogram = [&](int ya, int yb, bool showing_rows_only) {
-      std::fill(col_count_.begin(), col_count_.end(), std::uint16_t{0});
+    // Columns xa..xb of it: col_hist_ there (elsewhere unchanged).
+    auto columnHistogram = [&](int ya, int yb, bool showing_rows_only, int xa, int xb) {
       std::uint16_t* h = col_count_.data();
+      std::fill(h + xa, h + xb + 1, std::uint16_t{0});
       const int* lim = col_limit_.data();
       for (int y = ya; y <= yb; ++y) {
         if (showing_rows_only &&
             matches.ptr<int>(y)[best] - row_median_[static_cast<std::size_t>(y)] < params_.min_row_excess)
           continue;
-        const std::uint8_t* mk = maskRow(candidate_masks_, remaining, right, y);
+        const std::uint8_t* mk = maskRow(candidate_masks_, remaining, right, y, xa, xb + 1);
         if (y <= stripe_floor) {  // every column shows this row
-          for (int x = 0; x < cols; ++x) h[x] = static_cast<std::uint16_t>(h[x] + mk[x]);
+          for (int x = xa; x <= xb; ++x) h[x] = static_cast<std::uint16_t>(h[x] + mk[x]);
         } else {
-          for (int x = 0; x < cols; ++x) h[x] = static_cast<std::uint16_t>(h[x] + (y <= lim[x] ? mk[x] : 0));
+          for (int x = xa; x <= xb; ++x) h[x] = static_cast<std::uint16_t>(h[x] + (y <= lim[x] ? mk[x] : 0));
         }
       }
       col_hist_.resize(static_cast<std::size_t>(cols));
-      for (int x = 0; x < cols; ++x) col_hist_[static_cast<std::size_t>(x)] = static_cast<float>(h[x]);
+      for (int x = xa; x <= xb; ++x) col_hist_[static_cast<std::size_t>(x)] = static_cast<float>(h[x]);
     };
     // Column histogram over the rows that show the offset.
-    columnHistogram(0, limit, true);
+    columnHistogram(0, limit, true, 0, cols - 1);
     Extent cx = extent(col_hist_, 0, cols - 1, 0, cols - 1);
     Extent cy;
     if (cx.hi >= cx.lo) {
@@ -485,55 +486,34 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       }
       cy = extent(row_hist_, 0, limit, 0, limit);
       if (cy.hi >= cy.lo && !fast_) {
-        columnHistogram(cy.lo, cy.hi, false);
+        columnHistogram(cy.lo, cy.hi, false, 0, cols - 1);
         cx = extent(col_hist_, 0, cols - 1, cx.lo, cx.hi);
       } else if (cy.hi >= cy.lo) {
         // The same columns over the rows cy.lo..cy.hi, summed only where the extent looks:
-        // around the first borders and as far as its walk outwards goes, in blocks.
-        const int ya = cy.lo, yb = cy.hi;
-        int done_lo = cols, done_hi = -1;  // columns summed so far: [done_lo, done_hi]
-        col_hist_.resize(static_cast<std::size_t>(cols));
-        auto sumColumns = [&](int a, int b) {  // a..b, disjoint from the columns done
-          for (int x = a; x <= b; ++x) col_count_[static_cast<std::size_t>(x)] = 0;
-          std::uint16_t* h = col_count_.data();
-          for (int y = ya; y <= yb; ++y) {
-            const std::uint8_t* mk = maskRow(candidate_masks_, remaining, right, y, a, b + 1);
-            if (y <= stripe_floor) {
-              for (int x = a; x <= b; ++x) h[x] = static_cast<std::uint16_t>(h[x] + mk[x]);
-            } else {
-              for (int x = a; x <= b; ++x) h[x] = static_cast<std::uint16_t>(h[x] + (y <= lim[x] ? mk[x] : 0));
-            }
+        // around the first borders and as far as its walk outwards goes, in blocks. Only the
+        // columns done_lo..done_hi of col_hist_ are this candidate's (the cluster's columns
+        // lie among them).
+        int done_lo = cols, done_hi = -1;
+        auto cover = [&](int a, int b) {  // sums what [a, b] adds to [done_lo, done_hi], one span
+          if (done_hi < done_lo) {
+            columnHistogram(cy.lo, cy.hi, false, a, b);
+            done_lo = a;
+            done_hi = b;
+            return;
           }
-          for (int x = a; x <= b; ++x) col_hist_[static_cast<std::size_t>(x)] = static_cast<float>(h[x]);
+          if (a < done_lo) columnHistogram(cy.lo, cy.hi, false, a, done_lo - 1);
+          if (b > done_hi) columnHistogram(cy.lo, cy.hi, false, done_hi + 1, b);
+          done_lo = std::min(done_lo, a);
+          done_hi = std::max(done_hi, b);
         };
         constexpr int kBlock = 32;
         auto column = [&](int x) {
-          if (x < done_lo || x > done_hi) {
-            int a = x, b = x;
-            if (done_hi < done_lo) {
-              a = std::max(0, x - kBlock);
-              b = std::min(cols - 1, x + kBlock);
-            } else if (x < done_lo) {
-              a = std::max(0, std::min(x, done_lo - kBlock));
-              b = done_lo - 1;
-            } else {
-              a = done_hi + 1;
-              b = std::min(cols - 1, std::max(x, done_hi + kBlock));
-            }
-            sumColumns(a, b);
-            done_lo = std::min(done_lo, a);
-            done_hi = std::max(done_hi, b);
-          }
+          if (x < done_lo) cover(std::max(0, std::min(x, done_lo - kBlock)), done_hi);
+          if (x > done_hi) cover(done_lo, std::min(cols - 1, std::max(x, done_hi + kBlock)));
           return col_hist_[static_cast<std::size_t>(x)];
         };
-        const int smooth = params_.smooth_px;
-        sumColumns(std::max(0, cx.lo - smooth), std::min(cols - 1, cx.hi + smooth));
-        done_lo = std::max(0, cx.lo - smooth);
-        done_hi = std::min(cols - 1, cx.hi + smooth);
+        cover(std::max(0, cx.lo - params_.smooth_px), std::min(cols - 1, cx.hi + params_.smooth_px));
         cx = extentOf(column, 0, cols - 1, cx.lo, cx.hi);
-        // Columns the extent did not look at are not used below: they read as no evidence.
-        for (int x = 0; x < done_lo; ++x) col_hist_[static_cast<std::size_t>(x)] = 0.0f;
-        for (int x = done_hi + 1; x < cols; ++x) col_hist_[static_cast<std::size_t>(x)] = 0.0f;
       }
     }
     if (cx.hi < cx.lo || cy.hi < cy.lo) {
