@@ -593,6 +593,13 @@ StereoCalibration loadCalibration(const std::string& path, cv::Size image_size) 
   const std::string ext = extensionLower(path);
   StereoCalibration calib;
   if (startsWith(head, "%YAML") || startsWith(head, "<?xml") || startsWith(head, "<opencv_storage")) {
+    // OpenCV 4.6's XML parser reads past the end of a text cut off inside a tag
+    // after an attribute's '=' (found by tests/fuzz: "<?xml version="). A complete
+    // document ends with its root's closing tag.
+    if (head[0] == '<') {
+      const std::size_t last = text.find_last_not_of(" \t\r\n");
+      if (text[last] != '>') fail(path, "XML calibration file does not end with a closing tag (cut off?)");
+    }
     const OpenCvDoc doc(path, text);
     try {
       calib = readOpenCvStereo(doc, image_size);

@@ -7,7 +7,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <optional>
+#include <string>
 #include <utility>
 
 #include <opencv2/imgcodecs.hpp>
@@ -64,43 +66,128 @@ std::int64_t littleEndianSigned32(const std::vector<unsigned char>& b, std::size
   return static_cast<std::int32_t>(v);
 }
 
-// Width and height the header declares, read before a decoder allocates for
-// them (a 40-byte PGM header can ask for gigabytes). Nothing when the header is
+// What a header declares, read before a decoder allocates for it (a 40-byte
+// PGM header can ask for gigabytes): the size, and the least number of file
+// bytes a complete image of that size needs. A decoder allocates the whole
+// image from the header and only then finds the data missing, so a header
+// the file is far too short for is refused here. Nothing when the header is
 // too short to tell; the decoder then fails on it. JPEG: checkJpegLayout.
-std::optional<std::pair<std::int64_t, std::int64_t>> declaredSize(const std::vector<unsigned char>& b) {
-  if (hasPngSignature(b)) {
-    if (b.size() < 24 || !std::equal(b.begin() + 12, b.begin() + 16, "IHDR")) return std::nullopt;
-    return std::pair<std::int64_t, std::int64_t>{bigEndian(b, 16, 4), bigEndian(b, 20, 4)};
+struct DeclaredLayout {
+  std::int64_t width = 0, height = 0;
+  std::int64_t min_bytes = 0;  // 0: not bounded here
+  std::string bound;           // how min_bytes was found, for the message
+};
+
+std::int64_t littleEndian16(const std::vector<unsigned char>& b, std::size_t at) { return b[at] | (b[at + 1] << 8); }
+
+bool validSize(std::int64_t width, std::int64_t height) {
+  return width >= 1 && height >= 1 && width <= kMaxImageSide && height <= kMaxImageSide;
+}
+
+// PNG: the pixel data is deflate-compressed, whose best case codes a 258-byte
+// match in 2 bits, so the file holds at least 1/1032 of the filtered rows.
+std::optional<DeclaredLayout> pngLayout(const std::vector<unsigned char>& b) {
+  if (b.size() < 26 || !std::equal(b.begin() + 12, b.begin() + 16, "IHDR")) return std::nullopt;
+  DeclaredLayout layout{bigEndian(b, 16, 4), bigEndian(b, 20, 4), 0, ""};
+  const int bit_depth = b[24];
+  static constexpr std::array<int, 7> kChannels{1, 0, 3, 1, 2, 0, 4};  // by colour type
+  const int channels = b[25] < kChannels.size() ? kChannels[b[25]] : 0;
+  if (validSize(layout.width, layout.height) && channels > 0 && bit_depth >= 1 && bit_depth <= 16) {
+    const std::int64_t row_bytes = 1 + (layout.width * channels * bit_depth + 7) / 8;
+    layout.min_bytes = (layout.height * row_bytes + 1031) / 1032;
+    layout.bound = "at 1032:1, deflate's best ratio";
   }
-  if (hasBmpSignature(b)) {
-    if (b.size() < 26) return std::nullopt;
-    if (littleEndianSigned32(b, 14) == 12) {  // OS/2 header: 16-bit sizes
-      return std::pair<std::int64_t, std::int64_t>{b[18] | (b[19] << 8), b[20] | (b[21] << 8)};
-    }
+  return layout;
+}
+
+// BMP: uncompressed rows (padded to 4 bytes) from the data offset on. Run-length
+// coded BMPs are refused: two bytes can end the image, so their data bounds
+// nothing, and cameras do not write them.
+std::optional<DeclaredLayout> bmpLayout(const std::string& path, const std::vector<unsigned char>& b) {
+  if (b.size() < 30) return std::nullopt;
+  const std::int64_t header = littleEndianSigned32(b, 14);
+  DeclaredLayout layout;
+  std::int64_t bits = 0, compression = 0;
+  if (header == 12) {  // OS/2 header: 16-bit sizes
+    layout.width = littleEndian16(b, 18);
+    layout.height = littleEndian16(b, 20);
+    bits = littleEndian16(b, 24);
+  } else {
+    if (b.size() < 34) return std::nullopt;
+    layout.width = littleEndianSigned32(b, 18);
     const std::int64_t height = littleEndianSigned32(b, 22);
-    return std::pair<std::int64_t, std::int64_t>{littleEndianSigned32(b, 18), height < 0 ? -height : height};
+    layout.height = height < 0 ? -height : height;
+    bits = littleEndian16(b, 28);
+    compression = littleEndianSigned32(b, 30);
   }
-  if (hasPnmSignature(b)) {
-    std::int64_t values[2] = {-1, -1};
-    std::size_t i = 2;
-    for (std::int64_t& value : values) {
-      while (i < b.size() && (std::isspace(b[i]) != 0 || b[i] == '#')) {
-        if (b[i] == '#') {
-          while (i < b.size() && b[i] != '\n' && b[i] != '\r') ++i;
-        } else {
-          ++i;
-        }
+  if (compression == 1 || compression == 2) {
+    fail(path, "run-length coded BMP (compression " + std::to_string(compression) +
+                   "); only uncompressed BMP is accepted");
+  }
+  if (validSize(layout.width, layout.height) && header > 0 && bits >= 1 && bits <= 32) {
+    const std::int64_t stride = (layout.width * bits + 31) / 32 * 4;
+    const std::int64_t data_offset = littleEndianSigned32(b, 10) & 0xffffffffLL;  // after headers and palette
+    layout.min_bytes = data_offset + stride * layout.height;
+    layout.bound = "uncompressed rows";
+  }
+  return layout;
+}
+
+// PNM, walked as OpenCV's PxM decoder reads it: before a number white space
+// and comments ('#' to the end of the line), after it one byte of any kind
+// (consumed). Binary data (P4-P6) is raw bytes; text data (P1 one character
+// a pixel, P2/P3 a digit and a separator a sample) at least as many.
+std::optional<DeclaredLayout> pnmLayout(const std::vector<unsigned char>& b) {
+  std::size_t i = 2;
+  const auto readNumber = [&]() -> std::optional<std::int64_t> {
+    while (i < b.size() && std::isdigit(b[i]) == 0) {
+      if (b[i] == '#') {
+        while (i < b.size() && b[i] != '\n' && b[i] != '\r') ++i;
+        ++i;
+      } else if (std::isspace(b[i]) != 0) {
+        ++i;
+      } else {
+        return std::nullopt;  // the decoder refuses it
       }
-      std::int64_t v = 0;
-      int digits = 0;
-      for (; i < b.size() && std::isdigit(b[i]) != 0; ++i, ++digits) {
-        if (v <= kMaxImageSide) v = v * 10 + (b[i] - '0');  // stop growing once too large
-      }
-      if (digits == 0) return std::nullopt;
-      value = v;
     }
-    return std::pair<std::int64_t, std::int64_t>{values[0], values[1]};
+    if (i >= b.size()) return std::nullopt;
+    std::int64_t v = 0;
+    for (; i < b.size() && std::isdigit(b[i]) != 0; ++i) {
+      if (v <= std::numeric_limits<std::int32_t>::max()) v = v * 10 + (b[i] - '0');  // stop growing once too large
+    }
+    ++i;  // the byte that ended the number
+    return v;
+  };
+  const auto width = readNumber();
+  const auto height = width ? readNumber() : std::nullopt;
+  if (!height) return std::nullopt;
+  DeclaredLayout layout{*width, *height, 0, ""};
+  const char kind = static_cast<char>(b[1]);
+  const int channels = kind == '3' || kind == '6' ? 3 : 1;
+  std::int64_t sample_bytes = 1;
+  if (kind != '1' && kind != '4') {
+    const auto maxval = readNumber();
+    if (!maxval) return layout;
+    if (*maxval > 255) sample_bytes = 2;
   }
+  if (!validSize(layout.width, layout.height)) return layout;
+  const std::int64_t header = static_cast<std::int64_t>(std::min(i, b.size()));
+  const std::int64_t samples = layout.width * layout.height * channels;
+  switch (kind) {
+    case '1': layout.min_bytes = header + samples; break;
+    case '4': layout.min_bytes = header + (layout.width + 7) / 8 * layout.height; break;
+    case '2':
+    case '3': layout.min_bytes = header + 2 * samples - 1; break;
+    default: layout.min_bytes = header + samples * sample_bytes; break;
+  }
+  layout.bound = kind <= '3' ? "as text samples" : "as binary samples";
+  return layout;
+}
+
+std::optional<DeclaredLayout> declaredLayout(const std::string& path, const std::vector<unsigned char>& b) {
+  if (hasPngSignature(b)) return pngLayout(b);
+  if (hasBmpSignature(b)) return bmpLayout(path, b);
+  if (hasPnmSignature(b)) return pnmLayout(b);
   return std::nullopt;
 }
 
@@ -283,10 +370,15 @@ cv::Mat decodeMono8(const std::vector<unsigned char>& bytes, const std::string& 
   if (!hasPngSignature(bytes) && !hasJpegSignature(bytes) && !hasBmpSignature(bytes) && !hasPnmSignature(bytes)) {
     fail(path, "not a PNG, JPEG, BMP or PNM image (unknown file signature)");
   }
-  if (const auto size = declaredSize(bytes);
-      size && (size->first < 1 || size->second < 1 || size->first > kMaxImageSide || size->second > kMaxImageSide)) {
-    fail(path, "header declares a " + std::to_string(size->first) + "x" + std::to_string(size->second) +
-                   " image; accepted are 1..16384 pixels a side");
+  if (const auto layout = declaredLayout(path, bytes)) {
+    const std::string size = std::to_string(layout->width) + "x" + std::to_string(layout->height);
+    if (!validSize(layout->width, layout->height)) {
+      fail(path, "header declares a " + size + " image; accepted are 1..16384 pixels a side");
+    }
+    if (static_cast<std::int64_t>(bytes.size()) < layout->min_bytes) {
+      fail(path, "header declares a " + size + " image, which needs at least " + std::to_string(layout->min_bytes) +
+                     " bytes (" + layout->bound + "); the file has " + std::to_string(bytes.size()));
+    }
   }
   checkComplete(path, bytes);
   if (hasJpegSignature(bytes)) checkJpegLayout(path, bytes);

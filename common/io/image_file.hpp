@@ -13,8 +13,10 @@ namespace sg {
 // 8-bit: 16-bit images are rejected rather than scaled, because no scale is
 // right for every sensor and a silent guess would change every feature threshold.
 // Refused before decoding: other formats renamed, headers over 16384 pixels a
-// side, and JPEGs whose decoding the file size does not bound (arithmetic
-// coding, more than 64 scans, less coded data than one bit per 8x8 block).
+// side, headers declaring more pixels than the file can hold (PNM and BMP
+// samples, PNG rows at deflate's best ratio), run-length coded BMP, and JPEGs
+// whose decoding the file size does not bound (arithmetic coding, more than 64
+// scans, less coded data than one bit per 8x8 block).
 cv::Mat readMono8(const std::string& path);
 
 // The same checks and conversion on the bytes of an image file already in

@@ -76,6 +76,22 @@ TEST(FuzzRegressions, OpenCvXmlWithANulByteIsRejectedBeforeOpenCvParsesIt) {
   EXPECT_NE(opencvCalibrationError(dir, "calib_opencv-nul-byte").find("NUL byte at offset 11"), std::string::npos);
 }
 
+TEST(FuzzRegressions, OpenCvXmlCutOffAfterAnAttributesEqualsSignIsRejected) {
+  // OpenCV's XML parser read past the end of "<?xml version=" (SEGV on a null pointer).
+  const test::TempDir dir("fuzz_regression");
+  EXPECT_NE(opencvCalibrationError(dir, "calib_opencv-xml-cut-after-attribute-equals")
+                .find("XML calibration file does not end with a closing tag (cut off?)"),
+            std::string::npos);
+  // The same cut inside the document, after the header.
+  const std::string path = dir.write("cut.xml", "<?xml version=\"1.0\"?>\n<opencv_storage>\n<M1 type_id=  \n");
+  try {
+    loadCalibration(path);
+    ADD_FAILURE() << "a cut-off XML file was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), path + ": XML calibration file does not end with a closing tag (cut off?)");
+  }
+}
+
 // Image files: only the documented formats reach a decoder, and no header may
 // make a decoder allocate for more than 16384 pixels a side. (The image fuzz
 // target reached OpenCV's DICOM, WebP and JPEG 2000 decoders through files
@@ -253,6 +269,70 @@ TEST(ImageHardening, ArithmeticCodedJpegIsRefused) {
   EXPECT_EQ(decodeError(jpg),
             "frame.png: arithmetic-coded JPEG (frame header 0xFFC9); only Huffman-coded (baseline, extended or "
             "progressive) JPEG is accepted");
+}
+
+TEST(FuzzRegressions, PnmWhoseNumbersEndInOtherBytesIsSizedAsTheDecoderReadsIt) {
+  // "P3\v\t999\x19" "999999=7960#9...": OpenCV's PxM reader ends a number at any
+  // byte and consumes it, so it read 999x999999 samples of 16 bits and filled
+  // 6 GB (more than 3 s under fuzz_image -timeout=3). The size check stopped at
+  // the \x19 and let it through.
+  const std::string input = regression("image-pnm-number-ended-by-any-byte-timeout");
+  EXPECT_EQ(decodeError(std::vector<unsigned char>(input.begin(), input.end())),
+            "frame.png: header declares a 999x999999 image; accepted are 1..16384 pixels a side");
+}
+
+TEST(ImageHardening, HeadersTheFileIsTooShortForAreRefusedBeforeDecoding) {
+  // A PGM header asking for 4000 x 3000 binary samples, followed by 10 bytes.
+  std::string pgm = "P5 4000 3000 255\n";
+  const std::string header_size = std::to_string(pgm.size());
+  pgm += std::string(10, '\x7f');
+  EXPECT_EQ(decodeError(std::vector<unsigned char>(pgm.begin(), pgm.end())),
+            "frame.png: header declares a 4000x3000 image, which needs at least " +
+                std::to_string(4000 * 3000 + std::stoi(header_size)) + " bytes (as binary samples); the file has " +
+                std::to_string(pgm.size()));
+  // The same as text: a digit and a separator per sample, 16-bit samples twice the bytes.
+  const std::string text = "P2\n4000 3000\n255\n1 2 3\n";
+  EXPECT_NE(decodeError(std::vector<unsigned char>(text.begin(), text.end())).find("(as text samples)"),
+            std::string::npos);
+  const std::string wide = "P5 100 100 65535\n" + std::string(100 * 100, '\x01');
+  EXPECT_NE(decodeError(std::vector<unsigned char>(wide.begin(), wide.end())).find("needs at least 20017 bytes"),
+            std::string::npos);
+  // A PNG of 8 x 8 whose header is edited to 16000 x 16000: 256 MB of rows cannot
+  // come out of a 70-byte file at deflate's best ratio.
+  std::vector<unsigned char> png = encode(".png", cv::Mat(8, 8, CV_8UC1, cv::Scalar(3)));
+  for (const std::size_t at : {16u, 20u}) {
+    png[at] = 0;
+    png[at + 1] = 0;
+    png[at + 2] = 0x3e;
+    png[at + 3] = 0x80;
+  }
+  EXPECT_NE(decodeError(png).find("header declares a 16000x16000 image, which needs at least 248078 bytes (at "
+                                  "1032:1, deflate's best ratio)"),
+            std::string::npos);
+  // A BMP whose rows are cut off, and a run-length coded one.
+  std::vector<unsigned char> bmp = encode(".bmp", cv::Mat(64, 64, CV_8UC1, cv::Scalar(5)));
+  const std::size_t full = bmp.size();
+  bmp.resize(full - 64);
+  EXPECT_NE(decodeError(bmp).find("needs at least " + std::to_string(full) + " bytes (uncompressed rows)"),
+            std::string::npos);
+  bmp = encode(".bmp", cv::Mat(64, 64, CV_8UC1, cv::Scalar(5)));
+  bmp[30] = 1;  // BI_RLE8
+  EXPECT_EQ(decodeError(bmp), "frame.png: run-length coded BMP (compression 1); only uncompressed BMP is accepted");
+}
+
+TEST(ImageHardening, ImagesAtTheBestCompressionAreAccepted) {
+  // A uniform image at zlib's strongest setting comes closest to the ratio bound.
+  const cv::Mat black(1500, 2000, CV_8UC1, cv::Scalar(0));
+  std::vector<unsigned char> png;
+  ASSERT_TRUE(cv::imencode(".png", black, png, {cv::IMWRITE_PNG_COMPRESSION, 9}));
+  SCOPED_TRACE(std::to_string(png.size()) + " bytes");
+  EXPECT_EQ(decodeMono8(png, "black.png").size(), black.size());
+  // Every format at a size whose rows need padding, grey and colour.
+  const cv::Mat grey(37, 51, CV_8UC1, cv::Scalar(7));
+  const cv::Mat colour(37, 51, CV_8UC3, cv::Scalar(1, 2, 3));
+  for (const auto& [ext, image] : {std::pair{".bmp", grey}, {".bmp", colour}, {".pgm", grey}, {".ppm", colour}}) {
+    EXPECT_EQ(decodeMono8(encode(ext, image), std::string("frame") + ext).size(), grey.size()) << ext;
+  }
 }
 
 }  // namespace
