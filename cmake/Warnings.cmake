@@ -9,9 +9,3 @@ target_compile_options(sg_warnings INTERFACE
 if(SG_WERROR)
   target_compile_options(sg_warnings INTERFACE -Werror)
 endif()
-# clang (the SG_FUZZ build) also flags float -> double promotions inside mixed
-# arithmetic, which GCC, the reference compiler, accepts; keep them visible
-# there without failing the build.
-if(SG_WERROR AND CMAKE_CXX_COMPILER_ID MATCHES "Clang")
-  target_compile_options(sg_warnings INTERFACE -Wno-error=double-promotion)
-endif()

@@ -83,7 +83,8 @@ nlohmann::json toJson(const FrameRecord& r) {
   j["obstacles"] = obstacles;
   nlohmann::json humans = nlohmann::json::array();
   for (const auto& h : r.humans) {
-    humans.push_back({{"box", kittiBox(h.box.x, h.box.y, h.box.width, h.box.height)},
+    humans.push_back({{"box", kittiBox(static_cast<double>(h.box.x), static_cast<double>(h.box.y), static_cast<double>(h.box.width),
+                                       static_cast<double>(h.box.height))},
                       {"score", h.score},
                       {"distance_m", h.distance_m},
                       {"distance_sigma_m", h.distance_sigma_m},

@@ -179,7 +179,7 @@ void SyntheticSceneRenderer::compute(std::uint64_t seed, StereoPair& out, Execut
         auto* row = images[c]->ptr<std::uint8_t>(v);
         for (int u = 0; u < W; ++u) {
           const std::size_t i = static_cast<std::size_t>(v) * static_cast<std::size_t>(W) + static_cast<std::size_t>(u);
-          double r = rad[c][i];
+          double r = static_cast<double>(rad[c][i]);
           if (P.antialias) {
             const std::int32_t id = ids[c][i];
             const bool edge = (u > 0 && ids[c][i - 1] != id) || (u + 1 < W && ids[c][i + 1] != id) ||

@@ -306,7 +306,7 @@ GroundLine GroundEstimator::refit(const GroundLine& line, int row_begin, int row
          ++i) {
       const Peak& p = peaks_[static_cast<std::size_t>(i)];
       if (p.offset < 1 || std::abs(p.offset - d_line) > params_.support_tolerance_px) continue;
-      const double w = p.weight;
+      const double w = static_cast<double>(p.weight);
       sw += w;
       sy += w * y;
       sd += w * p.offset;

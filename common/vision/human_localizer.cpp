@@ -561,8 +561,8 @@ bool HumanLocalizer::validateCandidate(BoxWorkspace& ws, const cv::Mat& left, co
   const double sigma_d = trusted ? params_.refine.offset_sigma_px : params_.refine.fallback_sigma_px;
 
   // Step 4: the feet on the ground line at the refined offset (paper, figure 1).
-  const double box_top = h.box.y;
-  const double box_height = h.box.height;
+  const double box_top = static_cast<double>(h.box.y);
+  const double box_height = static_cast<double>(h.box.height);
   const double box_bottom = box_top + box_height;
   const double contact = groundRowForOffset(segmentation.ground, rig, static_cast<double>(offset), box_bottom);
   if (std::isfinite(contact) && contact > box_top + 0.5 * box_height && contact < box_bottom + 0.5 * box_height) {

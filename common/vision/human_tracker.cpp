@@ -137,7 +137,7 @@ void HumanTracker::update(double time_s, std::vector<HumanDetection>& detections
     if (static_cast<double>(det.score) < params_.min_start_score) continue;
     Track tr;
     tr.id = next_id_++;
-    tr.state = Eigen::Vector4d(det.position_m.x(), det.position_m.z(), 0.0, 0.0);
+    tr.state = Eigen::Vector4d(static_cast<double>(det.position_m.x()), static_cast<double>(det.position_m.z()), 0.0, 0.0);
     const Eigen::Matrix2d r = noise(det);
     tr.covariance = Eigen::Matrix4d::Zero();
     tr.covariance.topLeftCorner<2, 2>() = r;
