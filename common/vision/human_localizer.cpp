@@ -323,7 +323,13 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& r
         ++gap;
       }
     }
-    // Both boxes go on: the shape validation tells which one frames a person.
+    // Both sides by the smaller growth: the person stands around the symmetry
+    // axis, and growth on one side only is the background beside it (the
+    // band the right camera cannot see, streaked texture).
+    const int grow = std::min(c.box.x - x_left, x_right - (c.box.x + c.box.width - 1));
+    x_left = c.box.x - grow;
+    x_right = c.box.x + c.box.width - 1 + grow;
+    // Both boxes go on: the widened one replaces the core when a candidate is kept.
     HumanDetection h;
     h.box = cv::Rect2f(static_cast<float>(c.box.x + roi.x), static_cast<float>(c.box.y + roi.y),
                        static_cast<float>(c.box.width), static_cast<float>(c.box.height));
@@ -345,18 +351,19 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& r
     if (kept >= cp.max_per_cluster) break;
     const cv::Rect pixels = toPixels(h.box, left.size());
     if (foreignShare(segmentation, pixels, cluster.label) > fp.max_foreign_share) continue;  // straddles clusters
-    out.push_back(h);
     ++kept;
-    // The widened box of a kept candidate, when there is one.
+    // The widened box of a kept candidate, when there is one and it does not
+    // straddle clusters; otherwise the core.
+    bool widened = false;
     for (const auto& e : extended_) {
       if (e.box.y == h.box.y && e.box.height == h.box.height && e.box.x <= h.box.x &&
           e.box.x + e.box.width >= h.box.x + h.box.width && e.symmetry == h.symmetry) {
-        if (foreignShare(segmentation, toPixels(e.box, left.size()), cluster.label) <= fp.max_foreign_share) {
-          out.push_back(e);
-        }
+        widened = foreignShare(segmentation, toPixels(e.box, left.size()), cluster.label) <= fp.max_foreign_share;
+        if (widened) out.push_back(e);
         break;
       }
     }
+    if (!widened) out.push_back(h);
   }
 }
 
