@@ -123,9 +123,9 @@ struct ShapeParams {
 // Defaults fitted by `stereoguard evaluate --fit-score` on synthetic seeds 0-79
 // (config/localization.yaml says how); the tests score seeds from 1000 on.
 struct ScoreParams {
-  double bias = 1.093;
-  double w_symmetry = 1.133;
-  double w_shape = 1.785;
+  double bias = 1.783;
+  double w_symmetry = 0.251;
+  double w_shape = 2.171;
   double min_score = 0.5;   // detections below are dropped
 
   template <class V>
