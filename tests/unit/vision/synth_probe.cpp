@@ -12,6 +12,7 @@
 #include "io/synthetic_scene.hpp"
 #include "test_helpers.hpp"
 #include "vision/segmenter.hpp"
+#include "vision/visualize.hpp"
 
 using namespace sg;
 
@@ -65,16 +66,14 @@ int main(int argc, char** argv) {
     cv::Mat canvas;
     const char* draw_dir = std::getenv("DRAW");
     if (draw_dir) {
-      // Left image; features labelled as obstacles tinted; truth green (wanted) / yellow, found red.
+      // Left image with every feature in its label colour (visualize.hpp); truth green (wanted) / yellow, found red.
       cv::cvtColor(pair.left, canvas, cv::COLOR_GRAY2BGR);
       for (int y = 0; y < canvas.rows; ++y)
         for (int x = 0; x < canvas.cols; ++x)
-          switch (r.labels.at<std::uint8_t>(y, x)) {
-            case kLabelNone: break;
-            case kLabelUnassigned: canvas.at<cv::Vec3b>(y, x) = {255, 255, 255}; break;
-            case kLabelGround: canvas.at<cv::Vec3b>(y, x) = {255, 128, 0}; break;
-            case kLabelBackground: canvas.at<cv::Vec3b>(y, x) = {0, 160, 0}; break;
-            default: canvas.at<cv::Vec3b>(y, x) = {255, 0, 255};
+          if (const int label = r.labels.at<std::uint8_t>(y, x); label != kLabelNone) {
+            const cv::Scalar c = labelColour(label);  // the colours of the segment pictures
+            canvas.at<cv::Vec3b>(y, x) = cv::Vec3b(static_cast<std::uint8_t>(c[0]), static_cast<std::uint8_t>(c[1]),
+                                                   static_cast<std::uint8_t>(c[2]));
           }
     }
     std::vector<int> used(r.obstacles.size(), 0);
