@@ -390,7 +390,7 @@ cv::Mat decodeMono8(const std::vector<unsigned char>& bytes, const std::string& 
   }
   if (image.empty()) fail(path, "not a readable image (corrupt, truncated or not an image file)");
   // The header check reads the first frame header; a JPEG with a second one decodes at that size.
-  if (image.cols > kMaxImageSide || image.rows > kMaxImageSide) {
+  if (!validSize(image.cols, image.rows)) {
     fail(path, "decodes to a " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
                    " image; accepted are 1..16384 pixels a side");
   }
