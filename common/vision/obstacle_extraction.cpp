@@ -290,7 +290,7 @@ ObstacleExtractor::Extent ObstacleExtractor::extent(const std::vector<float>& hi
 void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const GroundProfile& ground,
                                 Correlator& correlator, cv::Mat& score, cv::Mat& matches,
                                 std::vector<std::uint8_t>& changed_rows, cv::Mat& labels,
-                                std::vector<ObstacleCluster>& obstacles) {
+                                std::vector<ObstacleCluster>& obstacles, double baseline_m) {
   if (remaining.type() != CV_8UC1 || right.type() != CV_8UC1 || remaining.size() != right.size() ||
       labels.size() != remaining.size() || labels.type() != CV_8UC1)
     throw InputError("obstacles: feature and label images must be mono8 of the same size");
@@ -434,7 +434,12 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
        ++iteration) {
     offsetHistogram(matches, ground);
     best = static_cast<int>(std::max_element(offset_hist_.begin(), offset_hist_.end()) - offset_hist_.begin());
-    if (offset_hist_[static_cast<std::size_t>(best)] < static_cast<float>(params_.min_peak_matches)) break;
+    const bool weak_search = params_.weak_peak_matches > 0 && baseline_m > 0.0;
+    const float peak = offset_hist_[static_cast<std::size_t>(best)];
+    if (peak < static_cast<float>(params_.min_peak_matches) &&
+        (!weak_search || peak < static_cast<float>(params_.weak_peak_matches)))
+      break;
+    const bool strong_peak = peak >= static_cast<float>(params_.min_peak_matches);
     const int limit = rowLimit(best);
 
     // Matched pixels at d* (+-tol), a row at a time on first use, kept for this candidate:
@@ -743,8 +748,16 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     const int count = sweepBox(box, -1, true);
     const int present = cv::countNonZero(remaining(box));
     const bool unmatched = count < params_.min_match_fraction * present;
-    if (floating || unmatched || count < params_.min_cluster_features || box.height < params_.min_height_px ||
-        box.width < params_.min_width_px) {
+    // A weak cluster (its peak or its matches below the obstacle thresholds) stays when it has
+    // a person's size at d*: size in metres = pixels x baseline / offset.
+    bool strong = strong_peak && count >= params_.min_cluster_features;
+    if (!strong && weak_search && count >= params_.weak_cluster_features && best > 0) {
+      const double metres_per_px = baseline_m / best;
+      const double height_m = box.height * metres_per_px;
+      strong = height_m >= params_.weak_min_height_m && height_m <= params_.weak_max_height_m &&
+               box.width * metres_per_px <= params_.weak_max_width_m;
+    }
+    if (floating || unmatched || !strong || box.height < params_.min_height_px || box.width < params_.min_width_px) {
       rejectCandidate(cv::Rect(cx.lo, cy.lo, cx.hi - cx.lo + 1, cy.hi - cy.lo + 1) | box);
       continue;
     }

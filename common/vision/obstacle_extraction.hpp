@@ -32,7 +32,7 @@
 namespace sg {
 
 struct ObstacleParams {
-  int max_obstacles = 8;            // obstacles per frame
+  int max_obstacles = 12;           // obstacles per frame
   int max_iterations = 24;          // candidates examined per frame (rejected ones included)
   int offset_tolerance_px = 1;      // offsets within +-this of d* match
   int grey_tolerance = 12;          // grey levels, as in the correlation
@@ -62,6 +62,14 @@ struct ObstacleParams {
   int cell_reach = 1;               // cells connect within this many cells of each other
   int min_cell_matches = 4;         // matched pixels of an active cell (a few rows of an outline)
   double merge_overlap = 0.5;       // fraction of the smaller box inside an earlier obstacle at a close offset: merge
+  // Person-sized clusters below min_peak_matches / min_cluster_features: a person 25-35 m away
+  // shows ~30-45 rows of a narrow outline. Such weaker clusters are kept when their size in
+  // metres (from d* and the rig's baseline) is a person's. 0 turns this off.
+  int weak_peak_matches = 120;      // histogram excess down to which person-sized clusters are sought
+  int weak_cluster_features = 50;   // matched pixels of a person-sized cluster (half the obstacles' minimum)
+  double weak_min_height_m = 0.9;   // a small child
+  double weak_max_height_m = 2.1;   // a tall adult
+  double weak_max_width_m = 1.2;    // walking, arms swinging, plus the match's spread
 
   template <class V>
   void visit(V& v) {
@@ -92,6 +100,12 @@ struct ObstacleParams {
     v.field("cell_reach", cell_reach, 1, 16, "cells", "cells connect within this distance");
     v.field("min_cell_matches", min_cell_matches, 1, 65536, "pixels", "matched pixels of an active cell");
     v.field("merge_overlap", merge_overlap, 0.0, 1.0, "", "overlap merging a cluster into an earlier one");
+    v.field("weak_peak_matches", weak_peak_matches, 0, 10000000, "pixels",
+            "weakest offset histogram peak searched for person-sized clusters (0: off)");
+    v.field("weak_cluster_features", weak_cluster_features, 1, 10000000, "pixels", "smallest person-sized cluster");
+    v.field("weak_min_height_m", weak_min_height_m, 0.1, 10.0, "metres", "shortest person-sized cluster");
+    v.field("weak_max_height_m", weak_max_height_m, 0.1, 10.0, "metres", "tallest person-sized cluster");
+    v.field("weak_max_width_m", weak_max_width_m, 0.1, 10.0, "metres", "widest person-sized cluster");
   }
   void validate() const { validateParams(*this, "obstacles"); }
 };
@@ -109,10 +123,11 @@ class ObstacleExtractor {
   // remaining: left features still unexplained (modified: obstacle pixels are cleared).
   // right: right feature image. score/matches: the correlation of `remaining`, valid
   // except on rows with changed_rows[y] != 0 (updated in place). labels: updated with
-  // the obstacle labels. obstacles: the result, strongest first.
+  // the obstacle labels. obstacles: the result, strongest first. baseline_m: the rig's
+  // baseline, which sizes clusters in metres (person-sized weak clusters; <= 0: none).
   void compute(cv::Mat& remaining, const cv::Mat& right, const GroundProfile& ground, Correlator& correlator,
                cv::Mat& score, cv::Mat& matches, std::vector<std::uint8_t>& changed_rows, cv::Mat& labels,
-               std::vector<ObstacleCluster>& obstacles);
+               std::vector<ObstacleCluster>& obstacles, double baseline_m = 0.0);
 
   const ObstacleParams& params() const { return params_; }
 

@@ -36,6 +36,8 @@ int main(int argc, char** argv) {
     if (const char* v = std::getenv("SUPPORT")) sgp.obstacles.min_support_fraction = std::atof(v);
     if (const char* v = std::getenv("ITER")) sgp.obstacles.max_iterations = std::atoi(v);
     if (const char* v = std::getenv("MAXOBS")) sgp.obstacles.max_obstacles = std::atoi(v);
+    if (const char* v = std::getenv("WPEAK")) sgp.obstacles.weak_peak_matches = std::atoi(v);
+    if (const char* v = std::getenv("WFEAT")) sgp.obstacles.weak_cluster_features = std::atoi(v);
     if (const char* v = std::getenv("CELL")) sgp.obstacles.cell_px = std::atoi(v);
     if (const char* v = std::getenv("REACH")) sgp.obstacles.cell_reach = std::atoi(v);
     if (const char* v = std::getenv("CELLMIN")) sgp.obstacles.min_cell_matches = std::atoi(v);

@@ -13,9 +13,9 @@
 namespace sg {
 namespace {
 
-SegmentationResult segment(const StereoPair& pair) {
+SegmentationResult segment(const StereoPair& pair, const SegmenterParams& params = {}) {
   FeatureExtractor fx;
-  Segmenter seg;
+  Segmenter seg(params);
   SegmentationResult r;
   segmentPair(fx, seg, pair.left, pair.right, pair.rig, r);
   return r;
@@ -68,6 +68,57 @@ TEST(SyntheticGround, WeakTextureFallsBackToThePrior) {
   EXPECT_GE(groundRowsWithin1(r.ground, *pair.truth, 128), 0.9);
 }
 
+// People 25-35 m away show ~30-45 rows of a narrow outline: often fewer matched
+// pixels than an obstacle needs. The weak tier keeps such clusters when their
+// size in metres is a person's: over random scenes, more of these people lie in
+// a cluster at their offset with it than without, and every cluster it adds has
+// a person's size.
+TEST(SyntheticObstacles, FarPeopleBelowTheObstacleThresholdsComeOutAsPersonSizedClusters) {
+  SegmenterParams off;
+  off.obstacles.weak_peak_matches = 0;
+  const SegmenterParams on;
+  ASSERT_GT(on.obstacles.weak_peak_matches, 0);
+  int found_on = 0, found_off = 0, people = 0, added = 0;
+  for (std::uint64_t seed = 1; seed <= 50; ++seed) {
+    const StereoPair pair = renderSyntheticScene(randomSceneParams(seed), seed);
+    const SceneTruth& t = *pair.truth;
+    const SegmentationResult with = segment(pair, on), without = segment(pair, off);
+    const double fb = pair.rig.focal_px * pair.rig.baseline_m;
+    // A person is in a cluster when the cluster covers half of the person's box at its offset (+-1).
+    auto inCluster = [&](const std::vector<ObstacleCluster>& clusters, const cv::Rect& box, double offset) {
+      for (const ObstacleCluster& c : clusters)
+        if (std::abs(c.offset_px - offset) <= 1.0 && 2 * (c.box & box).area() >= box.area()) return true;
+      return false;
+    };
+    for (std::size_t k = 0; k < t.objects.size(); ++k) {
+      const ObjectLabel& o = t.objects[k];
+      if (o.type != "Pedestrian" || t.object_visible_px[k] <= 0 || o.location_m[2] < 25.0) continue;
+      const cv::Rect box(cv::Point(static_cast<int>(o.box[0]), static_cast<int>(o.box[1])),
+                         cv::Point(static_cast<int>(o.box[2]) + 1, static_cast<int>(o.box[3]) + 1));
+      ++people;
+      found_on += inCluster(with.obstacles, box, fb / o.location_m[2]);
+      found_off += inCluster(without.obstacles, box, fb / o.location_m[2]);
+    }
+    // Every cluster the weak tier adds (no obstacle found without it overlaps it at its
+    // offset) has a person's height and width at its offset.
+    for (const ObstacleCluster& c : with.obstacles) {
+      bool known = false;
+      for (const ObstacleCluster& b : without.obstacles)
+        known |= std::abs(b.offset_px - c.offset_px) <= 1 && (b.box & c.box).area() > 0;
+      if (known || c.feature_count >= on.obstacles.min_cluster_features) continue;
+      ++added;
+      const double metres_per_px = pair.rig.baseline_m / c.offset_px;
+      EXPECT_GE(c.box.height * metres_per_px, on.obstacles.weak_min_height_m) << "seed " << seed;
+      EXPECT_LE(c.box.height * metres_per_px, on.obstacles.weak_max_height_m) << "seed " << seed;
+      EXPECT_LE(c.box.width * metres_per_px, on.obstacles.weak_max_width_m) << "seed " << seed;
+    }
+  }
+  std::printf("people 25 m or farther in a cluster: %d/%d with the weak tier, %d/%d without; %d weak clusters\n",
+              found_on, people, found_off, people, added);
+  EXPECT_GT(found_on, found_off);
+  EXPECT_GT(added, 0);
+}
+
 // Obstacles over many random scenes: every object taller than 40 px and nearer
 // than 30 m must be found (offset within +-1 of its disparity at its location or
 // of the median disparity of its visible surface,
@@ -75,7 +126,7 @@ TEST(SyntheticGround, WeakTextureFallsBackToThePrior) {
 // on average. A found obstacle is spurious when less than half of its labelled
 // feature pixels lie on true objects.
 // Disabled: the segmentation does not meet these figures yet (measured recall
-// 0.62, 0.72 spurious obstacles per frame; see docs/method.md, "Known
+// 0.62, 0.92 spurious obstacles per frame; see docs/method.md, "Known
 // limits"). Run it with --gtest_also_run_disabled_tests.
 TEST(SyntheticObstacles, DISABLED_RecallAndSpuriousOverManySeeds) {
   constexpr int kSeeds = 50;
