@@ -19,7 +19,9 @@
 //  - long walls receding in depth grow over neighbouring offsets whose
 //    matched features continue the cluster sideways, so they come out as one
 //    obstacle spanning [min_offset_px, max_offset_px] instead of slices;
-//  - a cluster at the offset of an earlier one and overlapping it is merged.
+//  - a cluster at the offset of an earlier one and overlapping it is merged;
+//  - below the obstacle thresholds, a weaker cluster is still kept when its box at d*
+//    has a person's size in metres (far people show only a few dozen rows).
 #include <cstdint>
 #include <vector>
 
