@@ -73,6 +73,8 @@ const FrameEvaluation& Evaluator::addFrame(const std::string& frame, const std::
     if (isCounted(l)) {
       role[i] = LabelRole::kCounted;
       fe.counted_labels.push_back(static_cast<int>(i));
+      fe.counted_distance_m.push_back(l.location_m[2] > 0.0 ? l.location_m[2]
+                                                             : std::numeric_limits<double>::quiet_NaN());
     } else if (l.type == "Pedestrian" || l.type == "Person_sitting" || l.type == "Cyclist") {
       role[i] = LabelRole::kIgnored;
     } else if (l.type == "DontCare") {
@@ -143,16 +145,20 @@ EvaluationSummary Evaluator::summary() const {
   std::vector<const ScoredDetection*> scored;
   std::vector<double> all_err;
   std::vector<std::vector<double>> bin_err(4);
+  int bin_labels[4] = {0, 0, 0, 0}, bin_found[4] = {0, 0, 0, 0};
+  auto binOf = [](double z) -> std::size_t { return z < 10.0 ? 0 : z < 20.0 ? 1 : z < 30.0 ? 2 : 3; };
   for (const auto& f : frames_) {
     s.ground_truth += static_cast<int>(f.counted_labels.size());
+    for (const double z : f.counted_distance_m)
+      if (std::isfinite(z)) ++bin_labels[binOf(z)];
     for (const auto& d : f.detections) {
       if (d.outcome == Outcome::kIgnored) continue;
       scored.push_back(&d);
+      if (d.outcome == Outcome::kTruePositive && std::isfinite(d.label_distance_m) && d.label_distance_m > 0.0)
+        ++bin_found[binOf(d.label_distance_m)];
       if (d.outcome == Outcome::kTruePositive && std::isfinite(d.distance_rel_error)) {
         all_err.push_back(d.distance_rel_error);
-        const double z = d.label_distance_m;
-        const std::size_t bin = z < 10.0 ? 0 : z < 20.0 ? 1 : z < 30.0 ? 2 : 3;
-        bin_err[bin].push_back(d.distance_rel_error);
+        bin_err[binOf(d.label_distance_m)].push_back(d.distance_rel_error);
       }
     }
   }
@@ -192,7 +198,11 @@ EvaluationSummary Evaluator::summary() const {
   s.has_distance = !all_err.empty();
   s.distance_all = makeBin(0.0, std::numeric_limits<double>::infinity(), all_err);
   const double edges[5] = {0.0, 10.0, 20.0, 30.0, std::numeric_limits<double>::infinity()};
-  for (std::size_t b = 0; b < 4; ++b) s.distance_bins.push_back(makeBin(edges[b], edges[b + 1], bin_err[b]));
+  for (std::size_t b = 0; b < 4; ++b) {
+    s.distance_bins.push_back(makeBin(edges[b], edges[b + 1], bin_err[b]));
+    s.distance_bins.back().labels = bin_labels[b];
+    s.distance_bins.back().found = bin_found[b];
+  }
   return s;
 }
 
@@ -283,6 +293,15 @@ nlohmann::json toJson(const EvaluationSummary& s) {
                           {"median", number(b.median)},
                           {"p90", number(b.p90)}};
   };
+  nlohmann::json by_range = nlohmann::json::array();
+  for (const auto& b : s.distance_bins) {
+    by_range.push_back({{"range_m", {b.lo_m, std::isfinite(b.hi_m) ? nlohmann::json(b.hi_m) : nlohmann::json(nullptr)}},
+                        {"pedestrians", b.labels},
+                        {"found", b.found},
+                        {"recall", b.labels > 0 ? nlohmann::json(static_cast<double>(b.found) / b.labels)
+                                                : nlohmann::json(nullptr)}});
+  }
+  j["recall_by_range"] = by_range;
   if (s.has_distance) {
     j["distance_rel_error"]["all"] = bin(s.distance_all);
     nlohmann::json bins = nlohmann::json::array();

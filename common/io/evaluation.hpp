@@ -75,6 +75,7 @@ struct FrameEvaluation {
   std::string frame;
   std::vector<ScoredDetection> detections;
   std::vector<int> counted_labels;     // label indices counted as ground truth
+  std::vector<double> counted_distance_m;  // their label distance z (same order; NaN when unknown)
   std::vector<int> missed_labels;      // counted labels no detection matched
 };
 
@@ -87,7 +88,9 @@ struct PrPoint {
 
 struct DistanceBin {
   double lo_m = 0.0, hi_m = 0.0;   // label distance range [lo, hi)
-  int count = 0;
+  int labels = 0;                  // counted labels in the range
+  int found = 0;                   // of them, matched by a detection (at the lowest threshold)
+  int count = 0;                   // true positives with a distance (the error statistics below)
   double median = std::numeric_limits<double>::quiet_NaN();  // of |Z - Zl| / Zl
   double p90 = std::numeric_limits<double>::quiet_NaN();
 };
@@ -105,7 +108,7 @@ struct EvaluationSummary {
   std::vector<PrPoint> curve;      // one point per distinct score, highest first
   bool has_distance = false;       // false when no true positive carries a distance
   DistanceBin distance_all;
-  std::vector<DistanceBin> distance_bins;  // 0-10, 10-20, 20-30, 30+ m
+  std::vector<DistanceBin> distance_bins;  // 0-10, 10-20, 20-30, 30+ m; recall per range too
 };
 
 class Evaluator {

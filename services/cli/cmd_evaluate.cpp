@@ -244,6 +244,15 @@ void runEvaluate(const EvaluateOptions& o) {
   const auto& s = methods.front().summary;
   std::cout << "frames " << s.frames << ", pedestrians " << s.ground_truth << ", recall " << s.recall << ", AP40 "
             << s.average_precision << ", FP/frame " << s.fp_per_frame << "\n";
+  if (s.ground_truth > 0) {
+    std::cout << "found by true distance:";
+    for (const auto& b : s.distance_bins) {
+      if (b.labels == 0) continue;
+      std::cout << "  " << b.lo_m << (std::isfinite(b.hi_m) ? "-" + std::to_string(static_cast<int>(b.hi_m)) : "+")
+                << " m " << b.found << "/" << b.labels;
+    }
+    std::cout << "\n";
+  }
   if (methods.size() > 1) {
     const auto& h = methods[1].summary;
     std::cout << "HOG full frame: recall " << h.recall << ", AP40 " << h.average_precision << ", FP/frame "

@@ -164,15 +164,21 @@ void writeReportHtml(const std::string& dir, const std::string& title, const std
       << escape(methods.front().name) << " by true distance</figcaption></figure>";
   }
   h << "</div>\n";
-  if (!methods.empty() && methods.front().summary.has_distance) {
-    h << "<table><tr><th>range (m)</th><th>n</th><th>median</th><th>p90</th></tr>\n";
-    for (const auto& b : methods.front().summary.distance_bins) {
-      h << "<tr><td>" << fmt(b.lo_m, 0) << " - " << (std::isfinite(b.hi_m) ? fmt(b.hi_m, 0) : std::string("")) << "</td><td>"
-        << b.count << "</td><td>" << fmt(b.median, 4) << "</td><td>" << fmt(b.p90, 4) << "</td></tr>\n";
+  // Per range of the true distance: how many people were found, and the distance error of those.
+  if (!methods.empty()) {
+    const auto& s0 = methods.front().summary;
+    h << "<p>" << escape(methods.front().name) << " by true distance (recall at the lowest score kept):</p>\n"
+      << "<table><tr><th>range (m)</th><th>pedestrians</th><th>found</th><th>recall</th><th>n (distance)</th>"
+         "<th>median |dZ|/Z</th><th>p90 |dZ|/Z</th></tr>\n";
+    for (const auto& b : s0.distance_bins) {
+      h << "<tr><td>" << fmt(b.lo_m, 0) << " - " << (std::isfinite(b.hi_m) ? fmt(b.hi_m, 0) : std::string(""))
+        << "</td><td>" << b.labels << "</td><td>" << b.found << "</td><td>"
+        << (b.labels > 0 ? fmt(static_cast<double>(b.found) / b.labels) : std::string("n/a")) << "</td><td>"
+        << b.count << "</td><td>" << (b.count > 0 ? fmt(b.median, 4) : std::string("n/a")) << "</td><td>"
+        << (b.count > 0 ? fmt(b.p90, 4) : std::string("n/a")) << "</td></tr>\n";
     }
     h << "</table>\n";
-  } else {
-    h << "<p>Distance error: n/a (no true positive with a distance).</p>\n";
+    if (!s0.has_distance) h << "<p>Distance error: n/a (no true positive with a distance).</p>\n";
   }
   h << "<h2>Gallery</h2>\n<p>Green: hit (score, distance) and counted labels; red: false positive; yellow: missed "
        "label; grey: ignored; thin blue: OpenCV HOG full-frame detections.</p>\n";

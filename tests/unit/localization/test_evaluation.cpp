@@ -67,6 +67,35 @@ TEST(Evaluation, TruthAsDetectionsGivesPerfectScores) {
   ASSERT_TRUE(s.has_distance);
   EXPECT_DOUBLE_EQ(s.distance_all.median, 0.0);
   EXPECT_DOUBLE_EQ(s.distance_all.p90, 0.0);
+  // Every range holds the counted people at its distances, all found.
+  int in_bins = 0;
+  for (const auto& b : s.distance_bins) {
+    EXPECT_EQ(b.found, b.labels) << b.lo_m << "-" << b.hi_m << " m";
+    in_bins += b.labels;
+  }
+  EXPECT_EQ(in_bins, counted);
+}
+
+TEST(Evaluation, RecallByRangeCountsEachPersonInTheBinOfItsTrueDistance) {
+  // Three counted people at 5, 15 and 25 m (the 25 m one missed), one at 35 m found.
+  const std::vector<ObjectLabel> labels = {pedestrian(100, 100, 140, 200, 5.0), pedestrian(300, 120, 330, 190, 15.0),
+                                           pedestrian(500, 140, 520, 180, 25.0), pedestrian(700, 150, 712, 180, 35.0)};
+  Evaluator ev;
+  ev.addFrame("f", labels, {detection(labels[0], 0.9, 5.2), detection(labels[1], 0.8, 15.0),
+                            detection(labels[3], 0.7, 34.0)});
+  const auto s = ev.summary();
+  ASSERT_EQ(s.distance_bins.size(), 4u);
+  const int labels_expected[4] = {1, 1, 1, 1}, found_expected[4] = {1, 1, 0, 1};
+  for (std::size_t b = 0; b < 4; ++b) {
+    EXPECT_EQ(s.distance_bins[b].labels, labels_expected[b]) << "bin " << b;
+    EXPECT_EQ(s.distance_bins[b].found, found_expected[b]) << "bin " << b;
+  }
+  EXPECT_EQ(s.distance_bins[2].count, 0);  // no distance error where nobody was found
+  const nlohmann::json j = toJson(s);
+  ASSERT_EQ(j["recall_by_range"].size(), 4u);
+  EXPECT_DOUBLE_EQ(j["recall_by_range"][2]["recall"].get<double>(), 0.0);
+  EXPECT_EQ(j["recall_by_range"][3]["pedestrians"].get<int>(), 1);
+  EXPECT_TRUE(j["recall_by_range"][3]["range_m"][1].is_null());
 }
 
 TEST(Evaluation, OneKnownFalsePositivePerFrameCount) {
