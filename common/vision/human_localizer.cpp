@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 #include <limits>
 
 #include <opencv2/imgproc.hpp>
@@ -67,6 +68,13 @@ void LocalizerParams::validate() const {
   requireLess(candidates.min_height_m, candidates.max_height_m, "candidates.min_height_m", "candidates.max_height_m");
   requireLess(candidates.min_width_m, candidates.max_width_m, "candidates.min_width_m", "candidates.max_width_m");
   requireLess(candidates.min_aspect, candidates.max_aspect, "candidates.min_aspect", "candidates.max_aspect");
+  requireLess(shape.rescale_margin_min, shape.rescale_margin_max, "shape.rescale_margin_min", "shape.rescale_margin_max");
+  for (const auto& [value, key] : {std::pair{shape.smaller_person_fraction, "shape.smaller_person_fraction"},
+                                   std::pair{shape.larger_person_fraction, "shape.larger_person_fraction"}}) {
+    if (value != 0.0 && value < 0.3)
+      throw ParamError(std::string("parameter 'localizer.") + key + "' = " + std::to_string(value) +
+                       " must be 0 (not tried) or at least 0.3");
+  }
 }
 
 double boxIoU(const cv::Rect2f& a, const cv::Rect2f& b) {
@@ -190,6 +198,12 @@ int HumanLocalizer::bands() const {
   if (!params_.parallel) return 1;
   const auto limit = static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
   return std::clamp(std::min(limit, tbb::this_task_arena::max_concurrency()), 1, kMaxBands);
+}
+
+long HumanLocalizer::hogDetectCalls() const {
+  long calls = 0;
+  for (const BoxWorkspace& ws : workspaces_) calls += ws.hog_calls;
+  return calls;
 }
 
 HumanLocalizer::BoxWorkspace& HumanLocalizer::workspace(int band) {
@@ -495,12 +509,25 @@ bool HumanLocalizer::refineOffset(BoxWorkspace& ws, const cv::Mat& left, const c
 }
 
 float HumanLocalizer::shapeScore(BoxWorkspace& ws, const cv::Mat& left, const cv::Rect2f& box) const {
+  const auto& sp = params_.shape;
+  const float first = shapeScoreAt(ws, left, box, sp.person_height_fraction);
+  // Where the margin leaves the decision open, the person may fill the window less or more
+  // than the box says (a box cut at the head or stretched to the ground): the best margin counts.
+  if (static_cast<double>(first) < sp.rescale_margin_min || static_cast<double>(first) > sp.rescale_margin_max)
+    return first;
+  float best = first;
+  for (const double f : {sp.smaller_person_fraction, sp.larger_person_fraction})
+    if (f > 0.0) best = std::max(best, shapeScoreAt(ws, left, box, f));
+  return best;
+}
+
+float HumanLocalizer::shapeScoreAt(BoxWorkspace& ws, const cv::Mat& left, const cv::Rect2f& box, double frac) const {
   if (box.height < 4.0f || box.width < 1.0f) return static_cast<float>(kNoShape);
   const cv::Size win = ws.hog.winSize;
   const int shift = params_.shape.shift_cells * kHogCellPx;
   const cv::Size canvas(win.width + 2 * shift, win.height + 2 * shift);
   // Image pixels per canvas pixel: the person fills person_height_fraction of the window.
-  const double s = static_cast<double>(box.height) / (params_.shape.person_height_fraction * win.height);
+  const double s = static_cast<double>(box.height) / (frac * win.height);
   const double cx = static_cast<double>(box.x) + 0.5 * static_cast<double>(box.width);
   const double cy = static_cast<double>(box.y) + 0.5 * static_cast<double>(box.height);
   const cv::Rect crop(static_cast<int>(std::lround(cx - 0.5 * canvas.width * s)),
@@ -515,6 +542,7 @@ float HumanLocalizer::shapeScore(BoxWorkspace& ws, const cv::Mat& left, const cv
                      inside.x - crop.x, crop.x + crop.width - inside.x - inside.width, cv::BORDER_REPLICATE);
   cv::resize(patch, ws.hog_canvas, canvas, 0, 0, s > 1.0 ? cv::INTER_AREA : cv::INTER_LINEAR);
   ws.hog.detect(ws.hog_canvas, ws.hog_found, ws.hog_weights, -1e9, cv::Size(kHogCellPx, kHogCellPx), cv::Size(0, 0));
+  ++ws.hog_calls;
   if (ws.hog_weights.empty()) return static_cast<float>(kNoShape);
   return static_cast<float>(*std::max_element(ws.hog_weights.begin(), ws.hog_weights.end()));
 }

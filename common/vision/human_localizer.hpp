@@ -108,6 +108,13 @@ struct ShapeParams {
   int detector = 0;                    // 0: OpenCV default people detector (64x128), 1: Daimler (48x96)
   double person_height_fraction = 0.75;// share of the detector window height a person fills
   int shift_cells = 1;                 // window shifts (in 8-pixel cells) tried around the box, each way
+  // When the margin at person_height_fraction lies in [rescale_margin_min, rescale_margin_max]
+  // (neither clearly a person nor clearly not), the window is also tried with the person
+  // filling these shares of it (0: not tried), and the largest margin counts.
+  double smaller_person_fraction = 0.65;
+  double larger_person_fraction = 0.85;
+  double rescale_margin_min = -2.0;
+  double rescale_margin_max = 0.0;
 
   template <class V>
   void visit(V& v) {
@@ -116,6 +123,13 @@ struct ShapeParams {
     v.field("person_height_fraction", person_height_fraction, 0.3, 1.0, "",
             "share of the detector window a person's height fills (training margin)");
     v.field("shift_cells", shift_cells, 0, 4, "cells", "window shifts tried around the box in each direction");
+    v.field("smaller_person_fraction", smaller_person_fraction, 0.0, 1.0, "",
+            "also tried: the person filling this share of the window (0: not tried)");
+    v.field("larger_person_fraction", larger_person_fraction, 0.0, 1.0, "",
+            "also tried: the person filling this share of the window (0: not tried)");
+    v.field("rescale_margin_min", rescale_margin_min, -100.0, 100.0, "",
+            "the other shares are tried when the first margin is at least this ...");
+    v.field("rescale_margin_max", rescale_margin_max, -100.0, 100.0, "", "... and at most this");
   }
 };
 
@@ -123,9 +137,9 @@ struct ShapeParams {
 // Defaults fitted by `stereoguard evaluate --fit-score` on synthetic seeds 0-79
 // (config/localization.yaml says how); the tests score seeds from 1000 on.
 struct ScoreParams {
-  double bias = 1.783;
-  double w_symmetry = 0.251;
-  double w_shape = 2.171;
+  double bias = 0.966;
+  double w_symmetry = 0.709;
+  double w_shape = 2.109;
   double min_score = 0.5;   // detections below are dropped
 
   template <class V>
@@ -195,12 +209,15 @@ class HumanLocalizer {
   double combinedScore(double symmetry, double shape_score) const;
 
   const LocalizerParams& params() const { return params_; }
+  // cv::HOGDescriptor::detect calls since construction (one or more per validated box).
+  long hogDetectCalls() const;
 
  private:
   // Scratch of the steps applied to one candidate box (3-5); one per band of
   // candidates, so that bands run in parallel.
   struct BoxWorkspace {
     cv::HOGDescriptor hog;
+    long hog_calls = 0;  // detect() calls made with this workspace
     cv::Mat hog_canvas;
     std::vector<cv::Point> hog_found;
     std::vector<double> hog_weights;
@@ -216,6 +233,8 @@ class HumanLocalizer {
   BoxWorkspace& workspace(int band);
   bool refineOffset(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& right, const cv::Rect& box,
                     const cv::Mat& mask, float& offset_px, float& zncc) const;
+  // HOG margin with the person filling `frac` of the window height.
+  float shapeScoreAt(BoxWorkspace& ws, const cv::Mat& left, const cv::Rect2f& box, double frac) const;
   float shapeScore(BoxWorkspace& ws, const cv::Mat& left, const cv::Rect2f& box) const;
   // Steps 3-5 on candidate h (refined offset, ground contact, distance, shape
   // score); false when it is dropped.
