@@ -146,7 +146,11 @@ EvaluationSummary Evaluator::summary() const {
   std::vector<double> all_err;
   std::vector<std::vector<double>> bin_err(4);
   int bin_labels[4] = {0, 0, 0, 0}, bin_found[4] = {0, 0, 0, 0};
-  auto binOf = [](double z) -> std::size_t { return z < 10.0 ? 0 : z < 20.0 ? 1 : z < 30.0 ? 2 : 3; };
+  const double edges[5] = {0.0, 10.0, 20.0, 30.0, std::numeric_limits<double>::infinity()};
+  // Bin b holds [edges[b], edges[b + 1]); distances below 0 go to the first.
+  auto binOf = [&edges](double z) {
+    return static_cast<std::size_t>(std::upper_bound(edges + 1, edges + 4, z) - (edges + 1));
+  };
   for (const auto& f : frames_) {
     s.ground_truth += static_cast<int>(f.counted_labels.size());
     for (const double z : f.counted_distance_m)
@@ -197,7 +201,6 @@ EvaluationSummary Evaluator::summary() const {
   s.average_precision = s.ground_truth > 0 ? ap : 0.0;
   s.has_distance = !all_err.empty();
   s.distance_all = makeBin(0.0, std::numeric_limits<double>::infinity(), all_err);
-  const double edges[5] = {0.0, 10.0, 20.0, 30.0, std::numeric_limits<double>::infinity()};
   for (std::size_t b = 0; b < 4; ++b) {
     s.distance_bins.push_back(makeBin(edges[b], edges[b + 1], bin_err[b]));
     s.distance_bins.back().labels = bin_labels[b];
@@ -287,15 +290,18 @@ nlohmann::json toJson(const EvaluationSummary& s) {
                      {"fp_per_frame", p.fp_per_frame}});
   }
   j["pr_curve"] = curve;
-  auto bin = [](const DistanceBin& b) {
-    return nlohmann::json{{"range_m", {b.lo_m, std::isfinite(b.hi_m) ? nlohmann::json(b.hi_m) : nlohmann::json(nullptr)}},
+  auto range = [](const DistanceBin& b) {
+    return nlohmann::json{b.lo_m, std::isfinite(b.hi_m) ? nlohmann::json(b.hi_m) : nlohmann::json(nullptr)};
+  };
+  auto bin = [&range](const DistanceBin& b) {
+    return nlohmann::json{{"range_m", range(b)},
                           {"count", b.count},
                           {"median", number(b.median)},
                           {"p90", number(b.p90)}};
   };
   nlohmann::json by_range = nlohmann::json::array();
   for (const auto& b : s.distance_bins) {
-    by_range.push_back({{"range_m", {b.lo_m, std::isfinite(b.hi_m) ? nlohmann::json(b.hi_m) : nlohmann::json(nullptr)}},
+    by_range.push_back({{"range_m", range(b)},
                         {"pedestrians", b.labels},
                         {"found", b.found},
                         {"recall", b.labels > 0 ? nlohmann::json(static_cast<double>(b.found) / b.labels)

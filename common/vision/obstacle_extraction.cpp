@@ -429,17 +429,16 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   correlator.computeRows(remaining, right, changed_rows, score, matches);
   std::fill(changed_rows.begin(), changed_rows.end(), std::uint8_t{0});
 
+  // Person-sized clusters below the obstacle thresholds are sought when the rig's baseline sizes them.
+  const bool weak_search = params_.weak_peak_matches > 0 && baseline_m > 0.0;
   for (int iteration = 0;
        iteration < params_.max_iterations && static_cast<int>(obstacles.size()) < params_.max_obstacles;
        ++iteration) {
     offsetHistogram(matches, ground);
     best = static_cast<int>(std::max_element(offset_hist_.begin(), offset_hist_.end()) - offset_hist_.begin());
-    const bool weak_search = params_.weak_peak_matches > 0 && baseline_m > 0.0;
     const float peak = offset_hist_[static_cast<std::size_t>(best)];
-    if (peak < static_cast<float>(params_.min_peak_matches) &&
-        (!weak_search || peak < static_cast<float>(params_.weak_peak_matches)))
-      break;
     const bool strong_peak = peak >= static_cast<float>(params_.min_peak_matches);
+    if (!strong_peak && (!weak_search || peak < static_cast<float>(params_.weak_peak_matches))) break;
     const int limit = rowLimit(best);
 
     // Matched pixels at d* (+-tol), a row at a time on first use, kept for this candidate:
@@ -750,14 +749,14 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     const bool unmatched = count < params_.min_match_fraction * present;
     // A weak cluster (its peak or its matches below the obstacle thresholds) stays when it has
     // a person's size at d*: size in metres = pixels x baseline / offset.
-    bool strong = strong_peak && count >= params_.min_cluster_features;
-    if (!strong && weak_search && count >= params_.weak_cluster_features && best > 0) {
+    bool significant = strong_peak && count >= params_.min_cluster_features;
+    if (!significant && weak_search && count >= params_.weak_cluster_features && best > 0) {
       const double metres_per_px = baseline_m / best;
       const double height_m = box.height * metres_per_px;
-      strong = height_m >= params_.weak_min_height_m && height_m <= params_.weak_max_height_m &&
-               box.width * metres_per_px <= params_.weak_max_width_m;
+      significant = height_m >= params_.weak_min_height_m && height_m <= params_.weak_max_height_m &&
+                    box.width * metres_per_px <= params_.weak_max_width_m;
     }
-    if (floating || unmatched || !strong || box.height < params_.min_height_px || box.width < params_.min_width_px) {
+    if (floating || unmatched || !significant || box.height < params_.min_height_px || box.width < params_.min_width_px) {
       rejectCandidate(cv::Rect(cx.lo, cy.lo, cx.hi - cx.lo + 1, cy.hi - cy.lo + 1) | box);
       continue;
     }

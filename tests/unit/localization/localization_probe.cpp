@@ -1,11 +1,11 @@
 // Diagnostic (not a test): why the detector misses the people it misses on
 // generated scenes. Per missed pedestrian: its size and distance, the best
 // detection at any score, and the obstacle cluster around it, if any.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
-#include <algorithm>
 
 #include "config/yaml_params.hpp"
 #include "io/evaluation.hpp"
