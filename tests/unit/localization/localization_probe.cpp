@@ -40,6 +40,11 @@ int main(int argc, char** argv) {
   // Per range bin of 5 m (0-5, ..., 35+): people counted and found (IoU 0.5, score 0.5).
   constexpr int kBins = 8;
   int bin_people[kBins] = {}, bin_found[kBins] = {};
+  struct BoxSize {
+    int n = 0;
+    double width = 0.0, height = 0.0;  // sums of detection / label ratios
+  };
+  BoxSize box_size[kBins];
   for (int i = 0; i < n; ++i) {
     const std::uint64_t seed = first + static_cast<std::uint64_t>(i);
     const test::SeedDetection run = test::detectSyntheticSeed(detector, seed);
@@ -56,6 +61,12 @@ int main(int argc, char** argv) {
         if (v > best) { best = v; best_score = h.score; best_box = h.box; }
       }
       const int bin = std::clamp(static_cast<int>(l.location_m[2] / 5.0), 0, kBins - 1);
+      if (best >= 0.25) {  // the nearest box's size against the label's, any score
+        BoxSize& b = box_size[bin];
+        ++b.n;
+        b.width += best_box.width / truth.width;
+        b.height += best_box.height / truth.height;
+      }
       ++bin_people[bin];
       if (best >= 0.5 && best_score >= 0.5) {
         ++bin_found[bin];
@@ -113,6 +124,12 @@ int main(int argc, char** argv) {
   for (int b = 0; b < kBins; ++b)
     if (bin_people[b] > 0) std::printf("  %d-%s m %d/%d", 5 * b, b + 1 < kBins ? std::to_string(5 * b + 5).c_str() : "",
                                        bin_found[b], bin_people[b]);
+  std::printf("\n");
+  std::printf("box / label size (IoU >= 0.25, any score), width and height by range:");
+  for (int b = 0; b < kBins; ++b)
+    if (box_size[b].n > 0)
+      std::printf("  %d-%s m %.2f %.2f", 5 * b, b + 1 < kBins ? std::to_string(5 * b + 5).c_str() : "",
+                  box_size[b].width / box_size[b].n, box_size[b].height / box_size[b].n);
   std::printf("\n");
   std::printf("pedestrians %d, missed at score 0.5 %d: no cluster %d, no box at IoU 0.5 %d, low score %d; recall at 0.2 FP/frame %.3f\n",
               s.ground_truth, missed, no_cluster, loose, low_score, evaluator.recallAtFpPerFrame(0.2));
