@@ -242,13 +242,23 @@ ObstacleExtractor::Extent ObstacleExtractor::extentOf(const Hist& hist, int lo, 
     for (int k = std::max(lo, i - r); k <= std::min(hi, i + r); ++k) s += hist(k);
     return s;
   };
+  // The fast path slides the window instead: the bins are whole numbers (match counts) whose
+  // sums stay far below 2^24, so every float sum is exact in any order and the same.
+  auto binOrZero = [&](int k) { return k >= lo && k <= hi ? hist(k) : 0.0f; };
   peak_lo = std::max(peak_lo, lo);
   peak_hi = std::min(peak_hi, hi);
   if (peak_hi < peak_lo) return e;
   int peak = peak_lo;
   float top = smooth(peak_lo);
+  float slide = top;
   for (int i = peak_lo + 1; i <= peak_hi; ++i) {
-    const float v = smooth(i);
+    float v;
+    if (fast_) {
+      slide += binOrZero(i + r) - binOrZero(i - r - 1);
+      v = slide;
+    } else {
+      v = smooth(i);
+    }
     if (v > top) {
       top = v;
       peak = i;
@@ -257,8 +267,16 @@ ObstacleExtractor::Extent ObstacleExtractor::extentOf(const Hist& hist, int lo, 
   if (top <= 0.0f) return e;
   const float thr = static_cast<float>(params_.extent_fraction) * top;
   int a = peak, b = peak, gap = 0;
+  slide = top;
   for (int i = peak - 1; i >= lo; --i) {
-    if (smooth(i) >= thr) {
+    float v;
+    if (fast_) {
+      slide += binOrZero(i - r) - binOrZero(i + r + 1);
+      v = slide;
+    } else {
+      v = smooth(i);
+    }
+    if (v >= thr) {
       a = i;
       gap = 0;
     } else if (++gap > params_.gap_px) {
@@ -266,8 +284,16 @@ ObstacleExtractor::Extent ObstacleExtractor::extentOf(const Hist& hist, int lo, 
     }
   }
   gap = 0;
+  slide = top;
   for (int i = peak + 1; i <= hi; ++i) {
-    if (smooth(i) >= thr) {
+    float v;
+    if (fast_) {
+      slide += binOrZero(i + r) - binOrZero(i - r - 1);
+      v = slide;
+    } else {
+      v = smooth(i);
+    }
+    if (v >= thr) {
       b = i;
       gap = 0;
     } else if (++gap > params_.gap_px) {
@@ -391,6 +417,10 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           xa = xb;
         }
       }
+      if (clear_label < 0) {  // counting only: the matches as they are (mk holds 0/1)
+        count += countOnes(mk + box.x, box.width);
+        continue;
+      }
       bool changed = false;
       int first_cleared = -1;
       int last_cleared = std::numeric_limits<int>::min() / 2;
@@ -399,7 +429,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         // of the pixels after it: a miss within `half` of the last cleared pixel is matched
         // again on the row as it is now (a clearing never turns a match into a miss).
         bool matched = mk[x] != 0;
-        if (!matched && clear_label >= 0 && x - last_cleared <= half && l[x] != 0) {
+        if (!matched && x - last_cleared <= half && l[x] != 0) {
           const int c = per_column ? col_offset_[static_cast<std::size_t>(x)] : best;
           const int slack = per_column ? tol + 1 : tol;
           matched = matchAt(l, r, x, c - slack, c + slack, params_.grey_tolerance, half, cols);
@@ -407,13 +437,11 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         if (!matched) continue;
         ++count;
         last_cleared = x;
-        if (clear_label >= 0) {
-          cleared_[static_cast<std::size_t>(x)] = l[x];
-          if (first_cleared < 0) first_cleared = x;
-          l[x] = 0;
-          lab[x] = static_cast<std::uint8_t>(clear_label);
-          changed = true;
-        }
+        cleared_[static_cast<std::size_t>(x)] = l[x];
+        if (first_cleared < 0) first_cleared = x;
+        l[x] = 0;
+        lab[x] = static_cast<std::uint8_t>(clear_label);
+        changed = true;
       }
       if (changed) {
         uncountRow(y, first_cleared, last_cleared + 1);
