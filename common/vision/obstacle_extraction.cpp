@@ -245,20 +245,18 @@ ObstacleExtractor::Extent ObstacleExtractor::extentOf(const Hist& hist, int lo, 
   // The fast path slides the window instead: the bins are whole numbers (match counts) whose
   // sums stay far below 2^24, so every float sum is exact in any order and the same.
   auto binOrZero = [&](int k) { return k >= lo && k <= hi ? hist(k) : 0.0f; };
+  // Bin i from bin i - dir (dir = +1 or -1), whose smoothed value is `previous`.
+  auto next = [&](float previous, int i, int dir) {
+    return fast_ ? previous + binOrZero(i + dir * r) - binOrZero(i - dir * (r + 1)) : smooth(i);
+  };
   peak_lo = std::max(peak_lo, lo);
   peak_hi = std::min(peak_hi, hi);
   if (peak_hi < peak_lo) return e;
   int peak = peak_lo;
   float top = smooth(peak_lo);
-  float slide = top;
+  float v = top;
   for (int i = peak_lo + 1; i <= peak_hi; ++i) {
-    float v;
-    if (fast_) {
-      slide += binOrZero(i + r) - binOrZero(i - r - 1);
-      v = slide;
-    } else {
-      v = smooth(i);
-    }
+    v = next(v, i, +1);
     if (v > top) {
       top = v;
       peak = i;
@@ -266,40 +264,23 @@ ObstacleExtractor::Extent ObstacleExtractor::extentOf(const Hist& hist, int lo, 
   }
   if (top <= 0.0f) return e;
   const float thr = static_cast<float>(params_.extent_fraction) * top;
-  int a = peak, b = peak, gap = 0;
-  slide = top;
-  for (int i = peak - 1; i >= lo; --i) {
-    float v;
-    if (fast_) {
-      slide += binOrZero(i - r) - binOrZero(i + r + 1);
-      v = slide;
-    } else {
-      v = smooth(i);
+  // Walks outwards from the peak while no more than gap_px bins in a row fall short.
+  auto walk = [&](int dir) {
+    int end = peak, gap = 0;
+    float w = top;
+    for (int i = peak + dir; i >= lo && i <= hi; i += dir) {
+      w = next(w, i, dir);
+      if (w >= thr) {
+        end = i;
+        gap = 0;
+      } else if (++gap > params_.gap_px) {
+        break;
+      }
     }
-    if (v >= thr) {
-      a = i;
-      gap = 0;
-    } else if (++gap > params_.gap_px) {
-      break;
-    }
-  }
-  gap = 0;
-  slide = top;
-  for (int i = peak + 1; i <= hi; ++i) {
-    float v;
-    if (fast_) {
-      slide += binOrZero(i + r) - binOrZero(i - r - 1);
-      v = slide;
-    } else {
-      v = smooth(i);
-    }
-    if (v >= thr) {
-      b = i;
-      gap = 0;
-    } else if (++gap > params_.gap_px) {
-      break;
-    }
-  }
+    return end;
+  };
+  int a = walk(-1);
+  int b = walk(+1);
   // Smoothing widens the extent by up to smooth_px: shrink to the raw evidence.
   while (a < b && hist(a) <= 0.0f) ++a;
   while (b > a && hist(b) <= 0.0f) --b;
