@@ -81,13 +81,11 @@ void ObstacleExtractor::resetMasks(RowMasks& masks, int d0, int d1) {
   masks.hi.assign(static_cast<std::size_t>(rows_), 0);
 }
 
-const std::uint8_t* ObstacleExtractor::maskRow(RowMasks& masks, const cv::Mat& remaining, const cv::Mat& right,
-                                               int y, int x0, int x1) {
-  if (x1 < 0) x1 = cols_;
+const std::uint8_t* ObstacleExtractor::fillMaskRow(RowMasks& masks, const cv::Mat& remaining, const cv::Mat& right,
+                                                   int y, int x0, int x1) {
   std::uint8_t* row = masks.bits.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(cols_);
   int& lo = masks.lo[static_cast<std::size_t>(y)];
   int& hi = masks.hi[static_cast<std::size_t>(y)];
-  if (lo <= x0 && x1 <= hi) return row;
   // Grow the valid span to cover [x0, x1), by at least a chunk on each side that grows
   // (columns are often asked for one by one while a cluster's sides are searched).
   constexpr int kChunk = 64;

@@ -162,7 +162,15 @@ class ObstacleExtractor {
   void resetMasks(RowMasks& masks, int d0, int d1);
   // Row y of `masks`, valid at least over columns [x0, x1) (the whole row by default).
   const std::uint8_t* maskRow(RowMasks& masks, const cv::Mat& remaining, const cv::Mat& right, int y, int x0 = 0,
-                              int x1 = -1);
+                              int x1 = -1) {
+    if (x1 < 0) x1 = cols_;
+    const auto row = static_cast<std::size_t>(y);
+    if (masks.lo[row] <= x0 && x1 <= masks.hi[row]) return masks.bits.data() + row * static_cast<std::size_t>(cols_);
+    return fillMaskRow(masks, remaining, right, y, x0, x1);
+  }
+  // maskRow's work when [x0, x1) is not valid yet.
+  const std::uint8_t* fillMaskRow(RowMasks& masks, const cv::Mat& remaining, const cv::Mat& right, int y, int x0,
+                                  int x1);
   void matchRow(const std::uint8_t* l, const std::uint8_t* r, int x0, int x1, int d0, int d1, std::uint8_t* out);
 
   ObstacleParams params_;
