@@ -1,6 +1,7 @@
 #include "vision/obstacle_extraction.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -44,6 +45,9 @@ int countOnes(const std::uint8_t* p, int n) {
   for (; x < n; ++x) sum += p[x];
   return sum;
 }
+
+// Share of features beside a plain gap, over the same rows, above which the surroundings are textured.
+constexpr double kPlainSurroundFraction = 0.2;
 
 double overlapOfSmaller(const cv::Rect& a, const cv::Rect& b) {
   const double inter = (a & b).area();
@@ -803,6 +807,124 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     for (int d = 0; d < offsets; ++d) sc[d] = static_cast<float>(m[d]) / norm;
   }
   std::fill(changed_rows.begin(), changed_rows.end(), std::uint8_t{0});
+}
+
+int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels,
+                                      std::vector<ObstacleCluster>& obstacles, double baseline_m) {
+  if (!params_.join_plain_faces || baseline_m <= 0.0) return 0;
+  if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() || labels.size() != left.size() ||
+      labels.type() != CV_8UC1)
+    throw InputError("obstacles: feature and label images must be mono8 of the same size");
+  const int cols = left.cols;
+  const int tol = params_.offset_tolerance_px;
+  int joins = 0;
+  for (std::size_t i = 0; i < obstacles.size(); ++i) {
+    for (const int dir : {+1, -1}) {
+      const ObstacleCluster& a = obstacles[i];
+      const int d_lo = std::max(1, a.min_offset_px - tol);
+      const int d_hi = a.max_offset_px + tol;
+      // The face's inner rows: the obstacle's rows without their top and bottom outline.
+      const int margin = std::max(2, a.box.height / 8);
+      const int y0 = a.box.y + margin, y1 = a.box.y + a.box.height - 1 - margin;
+      const int inner = y1 - y0 + 1;
+      if (inner <= 0) continue;
+      auto featuresIn = [&](int x) {
+        int n = 0;
+        for (int y = y0; y <= y1; ++y) n += labels.ptr<std::uint8_t>(y)[x] != kLabelNone;
+        return n;
+      };
+      auto matches = [&](int y, int x) {
+        return matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, d_lo, d_hi, params_.grey_tolerance,
+                       params_.match_half_window_px, cols);
+      };
+      // A column is plain when at most a quarter of its inner rows are features.
+      auto plain = [&](int f) { return 4 * f <= inner; };
+      // The gap: plain columns beside the obstacle, up to plain_max_width_m at its offset.
+      const int max_gap = static_cast<int>(params_.plain_max_width_m * a.offset_px / baseline_m);
+      const int first = dir > 0 ? a.box.x + a.box.width : a.box.x - 1;
+      int x = first, features = 0;
+      for (int f = 0; x >= 0 && x < cols && std::abs(x - first) <= max_gap && plain(f = featuresIn(x)); x += dir)
+        features += f;
+      const int gap = std::abs(x - first);
+      if (gap == 0 || x < 0 || x >= cols || gap > max_gap) continue;
+      if (features > params_.plain_max_feature_fraction * inner * gap) continue;
+      // The far side: the columns after the gap whose features mostly match at the offsets.
+      int far = x - dir;
+      for (int k = x; k >= 0 && k < cols && std::abs(k - x) < std::max(a.box.width, 8); k += dir) {
+        const int f = featuresIn(k);
+        if (plain(f)) break;
+        int matched = 0;
+        for (int y = y0; y <= y1; ++y) matched += matches(y, k);
+        if (matched < params_.min_match_fraction * f) break;
+        far = k;
+      }
+      if (far == x - dir) continue;
+      // The top outline continues the obstacle's top: most gap columns hold, within 2 rows of
+      // it, a feature matching at the offsets.
+      int outlined = 0;
+      for (int k = first; k != x; k += dir) {
+        const int yt = a.box.y;
+        bool hit = false;
+        for (int y = std::max(0, yt - 2); y <= std::min(left.rows - 1, yt + 2) && !hit; ++y) hit = matches(y, k);
+        outlined += hit;
+      }
+      // The gap is plain where the same rows beyond both sides are not: something hides what
+      // is behind it (on ground without texture a plain gap may be the ground itself).
+      const int beyond = std::min(gap, 2 * a.box.width);
+      int outside = 0, outside_columns = 0;
+      const int near_end = dir > 0 ? a.box.x - 1 : a.box.x + a.box.width;
+      for (int k = 0; k < beyond; ++k) {
+        for (const int c : {near_end - dir * k, far + dir * (k + 1)}) {
+          if (c < 0 || c >= cols) continue;
+          outside += featuresIn(c);
+          ++outside_columns;
+        }
+      }
+      if (outlined < params_.plain_min_outline_fraction * gap) continue;
+      if (outside < kPlainSurroundFraction * outside_columns * inner) continue;
+      // Joined: the box spans the far side, and obstacles there at the same offsets fold into it.
+      ObstacleCluster joined = a;
+      joined.box |= cv::Rect(std::min(x, far), a.box.y, std::abs(far - x) + 1, 1);
+      const cv::Rect reach = joined.box;
+      std::array<std::uint8_t, 256> into{};  // old label -> the old label it ends up under
+      for (int v = 0; v < 256; ++v) into[static_cast<std::size_t>(v)] = static_cast<std::uint8_t>(v);
+      std::vector<ObstacleCluster>& kept = kept_;
+      kept.clear();
+      for (std::size_t j = 0; j < obstacles.size(); ++j) {
+        const ObstacleCluster& b = obstacles[j];
+        if (j != i && b.min_offset_px <= a.max_offset_px + tol + 1 && b.max_offset_px >= a.min_offset_px - tol - 1 &&
+            overlapOfSmaller(reach, b.box) >= params_.merge_overlap) {
+          joined.box |= b.box;
+          joined.min_offset_px = std::min(joined.min_offset_px, b.min_offset_px);
+          joined.max_offset_px = std::max(joined.max_offset_px, b.max_offset_px);
+          joined.feature_count += b.feature_count;
+          into[static_cast<std::size_t>(b.label)] = static_cast<std::uint8_t>(a.label);
+        } else {
+          kept.push_back(b);
+        }
+      }
+      // Renumber: the obstacles left keep their order, labels follow.
+      std::array<std::uint8_t, 256> renumbered = into;
+      for (std::size_t n = 0; n < kept.size(); ++n) {
+        const int label = kLabelFirstObstacle + static_cast<int>(n);
+        if (kept[n].label == a.label) {
+          kept[n] = joined;
+          i = n;
+        }
+        for (int v = 0; v < 256; ++v)
+          if (into[static_cast<std::size_t>(v)] == kept[n].label)
+            renumbered[static_cast<std::size_t>(v)] = static_cast<std::uint8_t>(label);
+        kept[n].label = label;
+      }
+      for (int y = 0; y < labels.rows; ++y) {
+        std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+        for (int c = 0; c < cols; ++c) lab[c] = renumbered[lab[c]];
+      }
+      obstacles.assign(kept.begin(), kept.end());
+      ++joins;
+    }
+  }
+  return joins;
 }
 
 }  // namespace sg

@@ -64,6 +64,13 @@ struct ObstacleParams {
   int cell_reach = 1;               // cells connect within this many cells of each other
   int min_cell_matches = 4;         // matched pixels of an active cell (a few rows of an outline)
   double merge_overlap = 0.5;       // fraction of the smaller box inside an earlier obstacle at a close offset: merge
+  // Plain faces (a wall, a box, a vehicle's side without texture) show features only along
+  // their outline: the two sides come out as narrow obstacles at one offset. They are one
+  // obstacle when the columns between them are plain and the face's top outline joins them.
+  bool join_plain_faces = true;
+  double plain_max_feature_fraction = 0.05;  // feature share of the gap's inner rows up to which it is plain
+  double plain_min_outline_fraction = 0.5;   // share of the gap's columns whose top outline matches at the offset
+  double plain_max_width_m = 15.0;           // widest gap joined (a long vehicle's side)
   // Person-sized clusters below min_peak_matches / min_cluster_features: a person 25-35 m away
   // shows ~30-45 rows of a narrow outline. Such weaker clusters are kept when their size in
   // metres (from d* and the rig's baseline) is a person's. 0 turns this off.
@@ -102,6 +109,12 @@ struct ObstacleParams {
     v.field("cell_reach", cell_reach, 1, 16, "cells", "cells connect within this distance");
     v.field("min_cell_matches", min_cell_matches, 1, 65536, "pixels", "matched pixels of an active cell");
     v.field("merge_overlap", merge_overlap, 0.0, 1.0, "", "overlap merging a cluster into an earlier one");
+    v.field("join_plain_faces", join_plain_faces, 0, 1, "", "join the two sides of a plain face");
+    v.field("plain_max_feature_fraction", plain_max_feature_fraction, 0.0, 1.0, "",
+            "feature share of the gap between two sides up to which it is plain");
+    v.field("plain_min_outline_fraction", plain_min_outline_fraction, 0.0, 1.0, "",
+            "share of the gap's columns whose top outline matches at the sides' offset");
+    v.field("plain_max_width_m", plain_max_width_m, 0.0, 1000.0, "metres", "widest plain gap joined");
     v.field("weak_peak_matches", weak_peak_matches, 0, 10000000, "pixels",
             "weakest offset histogram peak searched for person-sized clusters (0: off)");
     v.field("weak_cluster_features", weak_cluster_features, 1, 10000000, "pixels", "smallest person-sized cluster");
@@ -130,6 +143,12 @@ class ObstacleExtractor {
   void compute(cv::Mat& remaining, const cv::Mat& right, const GroundProfile& ground, Correlator& correlator,
                cv::Mat& score, cv::Mat& matches, std::vector<std::uint8_t>& changed_rows, cv::Mat& labels,
                std::vector<ObstacleCluster>& obstacles, double baseline_m = 0.0);
+
+  // Joins the two sides of plain faces (ObstacleParams::join_plain_faces): `left` is the whole
+  // left feature image (before any removal), `labels` as left by compute(); joined obstacles
+  // are relabelled and the later ones renumbered. Returns the number of joins.
+  int joinPlainFaces(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels, std::vector<ObstacleCluster>& obstacles,
+                     double baseline_m);
 
   const ObstacleParams& params() const { return params_; }
 
@@ -212,6 +231,7 @@ class ObstacleExtractor {
   std::vector<Cell> cell_;
   std::vector<int> touched_cells_;  // cells evaluated this iteration (reset before the next)
   std::vector<int> flood_;   // cells still to visit while growing a cluster
+  std::vector<ObstacleCluster> kept_;  // joinPlainFaces: the obstacles left after a join
 };
 
 }  // namespace sg

@@ -19,6 +19,7 @@ struct AnalyticBox {
   double z_m = 10.0;       // distance (metres)
   double width_m = 1.0;
   double height_m = 1.8;
+  int plain_grey = -1;     // >= 0: a plain face of this grey level instead of texture
 };
 
 struct AnalyticSceneParams {
@@ -114,7 +115,9 @@ inline AnalyticScene renderAnalyticScene(const AnalyticSceneParams& p) {
           const double foot = p.camera_height_m - groundRise(p, b.z_m);
           if (std::abs(x - b.x_m) <= b.width_m / 2 && y <= foot && y >= foot - b.height_m) {
             z_best = b.z_m;
-            value = textureAt(x, y, p.object_cell_m, p.seed + 100 + static_cast<std::uint32_t>(k), 20, 220);
+            value = b.plain_grey >= 0
+                        ? b.plain_grey
+                        : textureAt(x, y, p.object_cell_m, p.seed + 100 + static_cast<std::uint32_t>(k), 20, 220);
           }
         }
         img.at<std::uint8_t>(v, u) = cv::saturate_cast<std::uint8_t>(value + rng.gaussian(p.noise_sigma));

@@ -76,6 +76,60 @@ TEST(SegmenterAnalytic, BoxesFoundAtTheirOffsets) {
   EXPECT_LE(r.obstacles.size(), scene.box_rects.size() + 1);
 }
 
+// An untextured face (a wall, a box, a vehicle's side) shows features only along its outline:
+// without joining, at most its sides are found as narrow obstacles; joined, one obstacle covers it.
+TEST(SegmenterAnalytic, PlainFaceIsOneObstacle) {
+  AnalyticSceneParams sp;
+  sp.boxes = {AnalyticBox{0.5, 12.0, 3.0, 1.4, 40}};
+  const auto scene = renderAnalyticScene(sp);
+  const cv::Rect truth = scene.box_rects[0];
+  for (const bool join : {true, false}) {
+    SegmenterParams p = paramsFor(64);
+    p.obstacles.join_plain_faces = join;
+    FeatureExtractor fx;
+    Segmenter seg(p);
+    SegmentationResult r;
+    segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+    const ObstacleCluster* found = nullptr;
+    for (const ObstacleCluster& o : r.obstacles)
+      if (test::iou(o.box, truth) >= 0.5) found = &o;
+    if (!join) {
+      EXPECT_FALSE(found) << "the face is found without joining: not plain";
+      continue;
+    }
+    ASSERT_TRUE(found) << truth << " not found";
+    EXPECT_NEAR(found->offset_px, scene.box_offsets[0], 1.0);
+    EXPECT_EQ(r.obstacles.size(), 1u);
+    // Labels follow: every obstacle pixel carries the joined obstacle's label.
+    for (int y = 0; y < r.labels.rows; ++y)
+      for (int x = 0; x < r.labels.cols; ++x) {
+        if (r.labels.at<std::uint8_t>(y, x) >= kLabelFirstObstacle) {
+          ASSERT_EQ(r.labels.at<std::uint8_t>(y, x), found->label) << "(" << x << ", " << y << ")";
+        }
+      }
+  }
+}
+
+// Two textured objects side by side at one distance on ground without texture: the plain
+// gap between them is ground, not a face, and they stay two obstacles.
+TEST(SegmenterAnalytic, PlainGroundBetweenTwoObjectsIsNoFace) {
+  AnalyticSceneParams sp;
+  sp.ground_contrast = 4;
+  sp.boxes = {AnalyticBox{-1.5, 10.0, 0.7, 1.7}, AnalyticBox{1.5, 10.0, 0.7, 1.7}};
+  const auto scene = renderAnalyticScene(sp);
+  FeatureExtractor fx;
+  Segmenter seg(paramsFor(64));
+  SegmentationResult r;
+  segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+  for (const cv::Rect& truth : scene.box_rects) {
+    bool found = false;
+    for (const ObstacleCluster& o : r.obstacles) found |= test::iou(o.box, truth) >= 0.5;
+    EXPECT_TRUE(found) << truth << " not found on its own";
+  }
+  for (const ObstacleCluster& o : r.obstacles)
+    EXPECT_FALSE((o.box & scene.box_rects[0]).area() > 0 && (o.box & scene.box_rects[1]).area() > 0) << o.box;
+}
+
 TEST(SegmenterAnalytic, WeakGroundTextureFallsBackToThePrior) {
   AnalyticSceneParams sp;
   sp.ground_contrast = 6;  // below the edge threshold: no ground features
