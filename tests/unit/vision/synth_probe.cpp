@@ -94,7 +94,7 @@ int main(int argc, char** argv) {
       }
       if (best >= 0 && best_iou > 0.2) used[static_cast<std::size_t>(best)] = 1;
       bool hit = false;  // as the acceptance test
-      const double d_surface = test::visibleDisparityMedian(t.disparity, t.object_id, k);
+      const test::DisparitySpread d_surface = test::visibleDisparities(t.disparity, t.object_id, k);
       for (const ObstacleCluster& c : r.obstacles) hit = hit || test::clusterFindsObject(c, box, d_true, d_surface);
       if (want) { ++wanted; found += hit; }
       if (!hit && t.object_visible_px[k] > 0 && (want || o.type == "Pedestrian")) missed.push_back(box);

@@ -121,12 +121,12 @@ TEST(SyntheticObstacles, FarPeopleBelowTheObstacleThresholdsComeOutAsPersonSized
 
 // Obstacles over many random scenes: every object taller than 40 px and nearer
 // than 30 m must be found (offset within +-1 of its disparity at its location or
-// of the median disparity of its visible surface,
-// box IoU >= 0.5 with its visible box); at most one spurious obstacle per frame
+// of the disparities its visible surface shows, 10th to 90th percentile: a
+// vehicle seen at an angle spans several; box IoU >= 0.5 with its visible box); at most one spurious obstacle per frame
 // on average. A found obstacle is spurious when less than half of its labelled
 // feature pixels lie on true objects.
 // Disabled: the segmentation does not meet these figures yet (measured recall
-// 0.65, 0.82 spurious obstacles per frame; see docs/method.md, "Known
+// 0.66, 0.82 spurious obstacles per frame; see docs/method.md, "Known
 // limits"). Run it with --gtest_also_run_disabled_tests.
 TEST(SyntheticObstacles, DISABLED_RecallAndSpuriousOverManySeeds) {
   constexpr int kSeeds = 50;
@@ -146,9 +146,9 @@ TEST(SyntheticObstacles, DISABLED_RecallAndSpuriousOverManySeeds) {
                          cv::Point(static_cast<int>(o.box[2]) + 1, static_cast<int>(o.box[3]) + 1));
       if (box.height <= 40 || o.location_m[2] >= 30.0) continue;
       ++frame_wanted;
-      // The truth offset: of the label's centre, or the median over the visible surface.
+      // The truth offset: of the label's centre, or any the visible surface shows (10th-90th percentile).
       const double centre_offset = fb / o.location_m[2];
-      const double surface_offset = test::visibleDisparityMedian(t.disparity, t.object_id, k);
+      const test::DisparitySpread surface_offset = test::visibleDisparities(t.disparity, t.object_id, k);
       // A cluster grown over many offsets (a wall receding in depth) carries its offset range.
       for (const ObstacleCluster& c : r.obstacles) {
         if (test::clusterFindsObject(c, box, centre_offset, surface_offset)) {
