@@ -809,9 +809,53 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   std::fill(changed_rows.begin(), changed_rows.end(), std::uint8_t{0});
 }
 
-int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels,
-                                      std::vector<ObstacleCluster>& obstacles, double baseline_m) {
-  if (!params_.join_plain_faces || baseline_m <= 0.0) return 0;
+void ObstacleExtractor::foldInto(std::size_t& i, const cv::Rect& reach, int d_lo, int d_hi, cv::Mat& labels,
+                                 std::vector<ObstacleCluster>& obstacles) {
+  const ObstacleCluster& a = obstacles[i];
+  ObstacleCluster joined = a;
+  joined.box |= reach;
+  std::array<std::uint8_t, 256> into{};  // old label -> the old label it ends up under
+  for (int v = 0; v < 256; ++v) into[static_cast<std::size_t>(v)] = static_cast<std::uint8_t>(v);
+  std::vector<ObstacleCluster>& kept = kept_;
+  kept.clear();
+  for (std::size_t j = 0; j < obstacles.size(); ++j) {
+    const ObstacleCluster& b = obstacles[j];
+    if (j != i && b.min_offset_px <= d_hi && b.max_offset_px >= d_lo &&
+        overlapOfSmaller(reach, b.box) >= params_.merge_overlap) {
+      joined.box |= b.box;
+      joined.min_offset_px = std::min(joined.min_offset_px, b.min_offset_px);
+      joined.max_offset_px = std::max(joined.max_offset_px, b.max_offset_px);
+      joined.feature_count += b.feature_count;
+      into[static_cast<std::size_t>(b.label)] = static_cast<std::uint8_t>(a.label);
+    } else {
+      kept.push_back(b);
+    }
+  }
+  // Renumber: the obstacles left keep their order, labels follow.
+  std::array<std::uint8_t, 256> renumbered = into;
+  for (std::size_t n = 0; n < kept.size(); ++n) {
+    const int label = kLabelFirstObstacle + static_cast<int>(n);
+    if (kept[n].label == a.label) {
+      kept[n] = joined;
+      i = n;
+    }
+    for (int v = 0; v < 256; ++v)
+      if (into[static_cast<std::size_t>(v)] == kept[n].label)
+        renumbered[static_cast<std::size_t>(v)] = static_cast<std::uint8_t>(label);
+    kept[n].label = label;
+  }
+  for (int y = 0; y < labels.rows; ++y) {
+    std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+    for (int c = 0; c < labels.cols; ++c) lab[c] = renumbered[lab[c]];
+  }
+  obstacles.assign(kept.begin(), kept.end());
+}
+
+int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right, GroundSource ground_source,
+                                      cv::Mat& labels, std::vector<ObstacleCluster>& obstacles, double baseline_m) {
+  // A plain gap is evidence of a face only where the ground behind it would show texture: on
+  // frames whose ground line could not be measured from texture nothing is joined.
+  if (!params_.join_plain_faces || baseline_m <= 0.0 || ground_source != GroundSource::kHough) return 0;
   if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() || labels.size() != left.size() ||
       labels.type() != CV_8UC1)
     throw InputError("obstacles: feature and label images must be mono8 of the same size");
@@ -883,46 +927,99 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       if (outlined < params_.plain_min_outline_fraction * gap) continue;
       if (outside < kPlainSurroundFraction * outside_columns * inner) continue;
       // Joined: the box spans the far side, and obstacles there at the same offsets fold into it.
-      ObstacleCluster joined = a;
-      joined.box |= cv::Rect(std::min(x, far), a.box.y, std::abs(far - x) + 1, 1);
-      const cv::Rect reach = joined.box;
-      std::array<std::uint8_t, 256> into{};  // old label -> the old label it ends up under
-      for (int v = 0; v < 256; ++v) into[static_cast<std::size_t>(v)] = static_cast<std::uint8_t>(v);
-      std::vector<ObstacleCluster>& kept = kept_;
-      kept.clear();
-      for (std::size_t j = 0; j < obstacles.size(); ++j) {
-        const ObstacleCluster& b = obstacles[j];
-        if (j != i && b.min_offset_px <= a.max_offset_px + tol + 1 && b.max_offset_px >= a.min_offset_px - tol - 1 &&
-            overlapOfSmaller(reach, b.box) >= params_.merge_overlap) {
-          joined.box |= b.box;
-          joined.min_offset_px = std::min(joined.min_offset_px, b.min_offset_px);
-          joined.max_offset_px = std::max(joined.max_offset_px, b.max_offset_px);
-          joined.feature_count += b.feature_count;
-          into[static_cast<std::size_t>(b.label)] = static_cast<std::uint8_t>(a.label);
-        } else {
-          kept.push_back(b);
-        }
-      }
-      // Renumber: the obstacles left keep their order, labels follow.
-      std::array<std::uint8_t, 256> renumbered = into;
-      for (std::size_t n = 0; n < kept.size(); ++n) {
-        const int label = kLabelFirstObstacle + static_cast<int>(n);
-        if (kept[n].label == a.label) {
-          kept[n] = joined;
-          i = n;
-        }
-        for (int v = 0; v < 256; ++v)
-          if (into[static_cast<std::size_t>(v)] == kept[n].label)
-            renumbered[static_cast<std::size_t>(v)] = static_cast<std::uint8_t>(label);
-        kept[n].label = label;
-      }
-      for (int y = 0; y < labels.rows; ++y) {
-        std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
-        for (int c = 0; c < cols; ++c) lab[c] = renumbered[lab[c]];
-      }
-      obstacles.assign(kept.begin(), kept.end());
+      cv::Rect reach = a.box | cv::Rect(std::min(x, far), a.box.y, std::abs(far - x) + 1, 1);
+      foldInto(i, reach, a.min_offset_px - tol - 1, a.max_offset_px + tol + 1, labels, obstacles);
       ++joins;
     }
+  }
+  // Faces receding in depth (a long wall seen at an angle): a near part `a` and a far part `f`
+  // at a smaller offset, side by side or with a gap between them. The face is a vertical plane
+  // standing on the ground: its top and bottom outlines are straight lines, its offset changes
+  // linearly along it, and its height in metres is the same everywhere. The parts are slices of
+  // one face when most features over both, between the outlines through their centres, match the
+  // offset line through their centres (textured walls match a few offsets at a time, so the
+  // growth over offsets stops). A gap wider than gap_px must be a plain face: nothing in it
+  // that does not match, its top outline matching, and textured surroundings.
+  auto receding = [&](const ObstacleCluster& a, const ObstacleCluster& f) {
+    const double da = a.offset_px, df = f.offset_px;
+    if (df < 1.0 || da <= df + tol + 1) return false;
+    const int a_end = a.box.x + a.box.width, f_end = f.box.x + f.box.width;  // exclusive
+    const int gap = std::max(a.box.x, f.box.x) - std::min(a_end, f_end);   // negative: overlap
+    if (gap < 1 || gap * baseline_m / df > params_.plain_max_width_m) return false;
+    const double ha = a.box.height * baseline_m / da, hf = f.box.height * baseline_m / df;
+    if (std::max(ha, hf) > (1.0 + params_.plain_height_tolerance) * std::min(ha, hf)) return false;
+    const double ca = a.box.x + 0.5 * (a.box.width - 1), cf = f.box.x + 0.5 * (f.box.width - 1);
+    if (std::abs(cf - ca) < 1.0) return false;
+    int features = 0, matched = 0, gap_other = 0, gap_area = 0, outlined = 0;
+    for (int x = std::min(a.box.x, f.box.x); x < std::max(a_end, f_end); ++x) {
+      const double t = (x - ca) / (cf - ca);
+      const double d = da + t * (df - da);
+      if (d < 1.0) continue;
+      const int top = static_cast<int>(std::lround(a.box.y + t * (f.box.y - a.box.y)));
+      const int bottom = static_cast<int>(std::lround(a.box.y + a.box.height - 1 +
+                                                      t * (f.box.y + f.box.height - a.box.y - a.box.height)));
+      const int d0 = static_cast<int>(std::floor(d)) - tol, d1 = static_cast<int>(std::ceil(d)) + tol;
+      auto onFace = [&](int y) {
+        return matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, d0, d1, params_.grey_tolerance,
+                       params_.match_half_window_px, cols);
+      };
+      const bool in_gap = (x >= a_end || x < a.box.x) && (x >= f_end || x < f.box.x);
+      const int margin = std::max(2, (bottom - top + 1) / 8);
+      int other = 0, rows_in = 0;
+      for (int y = std::max(0, top); y <= std::min(left.rows - 1, bottom); ++y) {
+        if (labels.ptr<std::uint8_t>(y)[x] == kLabelNone) continue;
+        const bool m = onFace(y);
+        ++features;
+        matched += m;
+        other += !m && y >= top + margin && y <= bottom - margin;
+      }
+      if (!in_gap) continue;
+      rows_in = std::max(0, bottom - top + 1 - 2 * margin);
+      if (4 * other > rows_in) return false;  // something in front of the face, or no face
+      gap_other += other;
+      gap_area += rows_in;
+      bool hit = false;
+      for (int y = std::max(0, top - 2); y <= std::min(left.rows - 1, top + 2) && !hit; ++y) hit = onFace(y);
+      outlined += hit;
+    }
+    if (features == 0 || matched < params_.min_match_fraction * features) return false;
+    // The rows both parts share are textured beyond them: the plain gap hides something (far
+    // ground near the horizon is plain too).
+    const bool f_left = cf < ca;
+    const int dir = f_left ? -1 : +1;
+    const int ya = std::max(a.box.y, f.box.y), yb = std::min(a.box.y + a.box.height, f.box.y + f.box.height) - 1;
+    const int m = std::max(2, (yb - ya + 1) / 8);
+    const int beyond = std::min(gap, 2 * std::max(a.box.width, f.box.width));
+    const int a_out = f_left ? a_end : a.box.x - 1;  // first column beyond each part
+    const int f_out = f_left ? f.box.x - 1 : f_end;
+    int beside = 0, beside_area = 0;
+    for (int y = ya + m; y <= yb - m; ++y) {
+      const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+      for (int k = 0; k < beyond; ++k) {
+        for (const int c : {a_out - dir * k, f_out + dir * k}) {
+          if (c < 0 || c >= cols) continue;
+          beside += lab[c] != kLabelNone;
+          ++beside_area;
+        }
+      }
+    }
+    return gap_area > 0 && gap_other <= params_.plain_max_feature_fraction * gap_area &&
+           outlined >= params_.plain_min_outline_fraction * gap && beside >= kPlainSurroundFraction * beside_area;
+  };
+  for (bool joined = true; joined;) {
+    joined = false;
+    for (std::size_t i = 0; i < obstacles.size() && !joined; ++i)
+      for (std::size_t j = 0; j < obstacles.size() && !joined; ++j) {
+        if (i == j || !receding(obstacles[i], obstacles[j])) continue;
+        // The earlier (stronger) part keeps its label; the other, and what lies inside it at its
+        // offsets, folds into it (an obstacle in front of the face stays apart).
+        std::size_t keep = std::min(i, j);
+        const ObstacleCluster& other = obstacles[i + j - keep];
+        const cv::Rect reach = other.box;
+        foldInto(keep, reach, other.min_offset_px - tol - 1, other.max_offset_px + tol + 1, labels, obstacles);
+        joined = true;
+        ++joins;
+      }
   }
   return joins;
 }

@@ -71,6 +71,7 @@ struct ObstacleParams {
   double plain_max_feature_fraction = 0.05;  // feature share of the gap's inner rows up to which it is plain
   double plain_min_outline_fraction = 0.5;   // share of the gap's columns whose top outline matches at the offset
   double plain_max_width_m = 15.0;           // widest gap joined (a long vehicle's side)
+  double plain_height_tolerance = 0.25;      // a receding face's two sides: heights in metres within this
   // Person-sized clusters below min_peak_matches / min_cluster_features: a person 25-35 m away
   // shows ~30-45 rows of a narrow outline. Such weaker clusters are kept when their size in
   // metres (from d* and the rig's baseline) is a person's. 0 turns this off.
@@ -115,6 +116,8 @@ struct ObstacleParams {
     v.field("plain_min_outline_fraction", plain_min_outline_fraction, 0.0, 1.0, "",
             "share of the gap's columns whose top outline matches at the sides' offset");
     v.field("plain_max_width_m", plain_max_width_m, 0.0, 1000.0, "metres", "widest plain gap joined");
+    v.field("plain_height_tolerance", plain_height_tolerance, 0.0, 10.0, "",
+            "relative difference of a receding face's side heights in metres");
     v.field("weak_peak_matches", weak_peak_matches, 0, 10000000, "pixels",
             "weakest offset histogram peak searched for person-sized clusters (0: off)");
     v.field("weak_cluster_features", weak_cluster_features, 1, 10000000, "pixels", "smallest person-sized cluster");
@@ -146,9 +149,10 @@ class ObstacleExtractor {
 
   // Joins the two sides of plain faces (ObstacleParams::join_plain_faces): `left` is the whole
   // left feature image (before any removal), `labels` as left by compute(); joined obstacles
-  // are relabelled and the later ones renumbered. Returns the number of joins.
-  int joinPlainFaces(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels, std::vector<ObstacleCluster>& obstacles,
-                     double baseline_m);
+  // are relabelled and the later ones renumbered. Only on frames whose ground line was
+  // measured (ground_source kHough). Returns the number of joins.
+  int joinPlainFaces(const cv::Mat& left, const cv::Mat& right, GroundSource ground_source, cv::Mat& labels,
+                     std::vector<ObstacleCluster>& obstacles, double baseline_m);
 
   const ObstacleParams& params() const { return params_; }
 
@@ -232,6 +236,10 @@ class ObstacleExtractor {
   std::vector<int> touched_cells_;  // cells evaluated this iteration (reset before the next)
   std::vector<int> flood_;   // cells still to visit while growing a cluster
   std::vector<ObstacleCluster> kept_;  // joinPlainFaces: the obstacles left after a join
+  // Obstacle i takes in `reach` and the obstacles mostly inside it whose offsets meet
+  // [d_lo, d_hi]; the others are renumbered with their labels, and i follows obstacle i.
+  void foldInto(std::size_t& i, const cv::Rect& reach, int d_lo, int d_hi, cv::Mat& labels,
+                std::vector<ObstacleCluster>& obstacles);
 };
 
 }  // namespace sg

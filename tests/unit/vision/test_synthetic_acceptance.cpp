@@ -119,6 +119,48 @@ TEST(SyntheticObstacles, FarPeopleBelowTheObstacleThresholdsComeOutAsPersonSized
   EXPECT_GT(added, 0);
 }
 
+// Long walls beside the road, plain where they are near (their texture is finer than a pixel
+// only far away): where the near end and the textured far part are found, the plain face between
+// them, its offset changing along it, joins them into one obstacle (docs/method.md, plain faces).
+TEST(SyntheticObstacles, PlainRecedingWallIsOneObstacle) {
+  int walls = 0, joined = 0, without = 0;
+  for (int k = 0; k < 12; ++k) {
+    const double x = (k % 2 ? 1.0 : -1.0) * (3.5 + 0.5 * (k % 6));
+    SyntheticSceneParams p;
+    SyntheticObstacle wall;
+    wall.shape = ObstacleShape::kLongWall;
+    wall.x_m = x;
+    wall.depth_m = 30.0;
+    wall.z_m = 8.0 + (k % 3) + 0.5 * wall.depth_m;
+    wall.width_m = 0.3;
+    wall.height_m = 2.0;
+    wall.texture_seed = static_cast<std::uint32_t>(100 + k);
+    p.obstacles = {wall};
+    const StereoPair pair = renderSyntheticScene(p, 1);
+    const ObjectLabel& o = pair.truth->objects[0];
+    const cv::Rect box(cv::Point(static_cast<int>(o.box[0]), static_cast<int>(o.box[1])),
+                       cv::Point(static_cast<int>(o.box[2]) + 1, static_cast<int>(o.box[3]) + 1));
+    const test::DisparitySpread surface = test::visibleDisparities(pair.truth->disparity, pair.truth->object_id, 0);
+    const double centre = pair.rig.focal_px * pair.rig.baseline_m / o.location_m[2];
+    auto found = [&](const SegmentationResult& r) {
+      for (const ObstacleCluster& c : r.obstacles)
+        if (test::clusterFindsObject(c, box, centre, surface)) return true;
+      return false;
+    };
+    SegmenterParams off;
+    off.obstacles.join_plain_faces = false;
+    ++walls;
+    joined += found(segment(pair));
+    without += found(segment(pair, off));
+  }
+  std::printf("long walls found: %d/%d joining plain faces, %d/%d without\n", joined, walls, without, walls);
+  // Measured: 2 of 12 with, none without. Most of these walls are textured enough over their
+  // far half to come out in slices at neighbouring offsets, which are not joined
+  // (docs/method.md, "Known limits").
+  EXPECT_GE(joined, 2);
+  EXPECT_GT(joined, without);
+}
+
 // Obstacles over many random scenes: every object taller than 40 px and nearer
 // than 30 m must be found (offset within +-1 of its disparity at its location or
 // of the disparities its visible surface shows, 10th to 90th percentile: a
@@ -126,7 +168,7 @@ TEST(SyntheticObstacles, FarPeopleBelowTheObstacleThresholdsComeOutAsPersonSized
 // on average. A found obstacle is spurious when less than half of its labelled
 // feature pixels lie on true objects.
 // Disabled: the segmentation does not meet these figures yet (measured recall
-// 0.66, 0.82 spurious obstacles per frame; see docs/method.md, "Known
+// 0.68, 0.82 spurious obstacles per frame; see docs/method.md, "Known
 // limits"). Run it with --gtest_also_run_disabled_tests.
 TEST(SyntheticObstacles, DISABLED_RecallAndSpuriousOverManySeeds) {
   constexpr int kSeeds = 50;
