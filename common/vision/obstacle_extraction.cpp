@@ -809,6 +809,62 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   std::fill(changed_rows.begin(), changed_rows.end(), std::uint8_t{0});
 }
 
+int ObstacleExtractor::trimOccludedLeft(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
+                                        cv::Mat& labels, std::vector<ObstacleCluster>& obstacles) const {
+  if (!params_.trim_occluded_left || ground.source == GroundSource::kNone) return 0;
+  if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() || labels.size() != left.size() ||
+      labels.type() != CV_8UC1)
+    throw InputError("obstacles: feature and label images must be mono8 of the same size");
+  const int cols = left.cols;
+  const int tol = params_.offset_tolerance_px;
+  // The offset of what is behind at (y, x): the ground below the horizon, the background above.
+  auto behind = [&](int y, int x) {
+    float b = ground.background_offset;
+    if (y >= ground.horizon_row && y < static_cast<int>(ground.offset_per_row.size()) &&
+        std::isfinite(ground.offset_per_row[static_cast<std::size_t>(y)]))
+      b = ground.offset_per_row[static_cast<std::size_t>(y)] + ground.offset_per_column * (x - ground.reference_column);
+    return std::isfinite(b) ? static_cast<int>(std::lround(b)) : -1;
+  };
+  int trimmed = 0;
+  for (ObstacleCluster& o : obstacles) {
+    const int d = o.offset_px;
+    // The band is at most as wide as the obstacle's offset minus the smallest offset behind it.
+    int min_behind = d;
+    for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
+      const int b = behind(y, o.box.x);
+      if (b >= 0) min_behind = std::min(min_behind, b);
+    }
+    const int band = std::min(d - min_behind, o.box.width / 2);
+    int x = o.box.x;
+    for (; x < o.box.x + band; ++x) {
+      int own = 0, ambiguous = 0;
+      for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
+        if (labels.ptr<std::uint8_t>(y)[x] != o.label) continue;
+        ++own;
+        // The right pixel x - d shows what is behind, visible in the left image at x - d + b.
+        const int b = behind(y, x);
+        if (b < 0 || b >= d - tol - 1) continue;
+        ambiguous += matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x - d + b, b - tol, b + tol,
+                             params_.grey_tolerance, params_.match_half_window_px, cols);
+      }
+      if (own > 0 && 3 * ambiguous < 2 * own) break;  // the obstacle itself
+    }
+    if (x == o.box.x) continue;
+    for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
+      std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+      for (int c = o.box.x; c < x; ++c) {
+        if (lab[c] != o.label) continue;
+        lab[c] = kLabelUnassigned;
+        --o.feature_count;
+      }
+    }
+    trimmed += x - o.box.x;
+    o.box.width -= x - o.box.x;
+    o.box.x = x;
+  }
+  return trimmed;
+}
+
 void ObstacleExtractor::foldInto(std::size_t& i, const cv::Rect& reach, int d_lo, int d_hi, cv::Mat& labels,
                                  std::vector<ObstacleCluster>& obstacles) {
   const ObstacleCluster& a = obstacles[i];

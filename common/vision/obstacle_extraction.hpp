@@ -21,7 +21,10 @@
 //    obstacle spanning [min_offset_px, max_offset_px] instead of slices;
 //  - a cluster at the offset of an earlier one and overlapping it is merged;
 //  - below the obstacle thresholds, a weaker cluster is still kept when its box at d*
-//    has a person's size in metres (far people show only a few dozen rows).
+//    has a person's size in metres (far people show only a few dozen rows);
+//  - after the loop, a left-right test trims the band left of each obstacle that only the
+//    left camera sees (trimOccludedLeft), and the sides of plain faces, at one offset or
+//    receding in depth, are joined into one obstacle (joinPlainFaces).
 #include <cstdint>
 #include <vector>
 
@@ -67,6 +70,7 @@ struct ObstacleParams {
   // Plain faces (a wall, a box, a vehicle's side without texture) show features only along
   // their outline: the two sides come out as narrow obstacles at one offset. They are one
   // obstacle when the columns between them are plain and the face's top outline joins them.
+  bool trim_occluded_left = true;  // left-right consistency on the band left of each obstacle
   bool join_plain_faces = true;
   double plain_max_feature_fraction = 0.05;  // feature share of the gap's inner rows up to which it is plain
   double plain_min_outline_fraction = 0.5;   // share of the gap's columns whose top outline matches at the offset
@@ -110,6 +114,8 @@ struct ObstacleParams {
     v.field("cell_reach", cell_reach, 1, 16, "cells", "cells connect within this distance");
     v.field("min_cell_matches", min_cell_matches, 1, 65536, "pixels", "matched pixels of an active cell");
     v.field("merge_overlap", merge_overlap, 0.0, 1.0, "", "overlap merging a cluster into an earlier one");
+    v.field("trim_occluded_left", trim_occluded_left, 0, 1, "",
+            "trim the band left of an obstacle that only the left camera sees");
     v.field("join_plain_faces", join_plain_faces, 0, 1, "", "join the two sides of a plain face");
     v.field("plain_max_feature_fraction", plain_max_feature_fraction, 0.0, 1.0, "",
             "feature share of the gap between two sides up to which it is plain");
@@ -146,6 +152,14 @@ class ObstacleExtractor {
   void compute(cv::Mat& remaining, const cv::Mat& right, const GroundProfile& ground, Correlator& correlator,
                cv::Mat& score, cv::Mat& matches, std::vector<std::uint8_t>& changed_rows, cv::Mat& labels,
                std::vector<ObstacleCluster>& obstacles, double baseline_m = 0.0);
+
+  // Trims the band left of each obstacle that only the left camera sees (ObstacleParams::
+  // trim_occluded_left): there the left image shows what is behind, whose texture matches the
+  // obstacle's offset by chance; the right pixel of such a match matches the left image at the
+  // ground or background offset behind instead. `left` is the whole left feature image.
+  // Returns the number of columns trimmed.
+  int trimOccludedLeft(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
+                       std::vector<ObstacleCluster>& obstacles) const;
 
   // Joins the two sides of plain faces (ObstacleParams::join_plain_faces): `left` is the whole
   // left feature image (before any removal), `labels` as left by compute(); joined obstacles
