@@ -137,9 +137,9 @@ struct ShapeParams {
 // Defaults fitted by `stereoguard evaluate --fit-score` on synthetic seeds 0-79
 // (config/localization.yaml says how); the tests score seeds from 1000 on.
 struct ScoreParams {
-  double bias = 0.966;
-  double w_symmetry = 0.709;
-  double w_shape = 2.109;
+  double bias = 1.157;
+  double w_symmetry = 0.364;
+  double w_shape = 2.111;
   double min_score = 0.5;   // detections below are dropped
 
   template <class V>
