@@ -988,14 +988,13 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       ++joins;
     }
   }
-  // Faces receding in depth (a long wall seen at an angle): a near part `a` and a far part `f`
-  // at a smaller offset, side by side or with a gap between them. The face is a vertical plane
-  // standing on the ground: its top and bottom outlines are straight lines, its offset changes
-  // linearly along it, and its height in metres is the same everywhere. The parts are slices of
-  // one face when most features over both, between the outlines through their centres, match the
-  // offset line through their centres (textured walls match a few offsets at a time, so the
-  // growth over offsets stops). A gap wider than gap_px must be a plain face: nothing in it
-  // that does not match, its top outline matching, and textured surroundings.
+  // Faces receding in depth (a long wall seen at an angle, plain where it is near and textured
+  // far away): a near part `a` and a far part `f` at a smaller offset with a plain gap between
+  // them. The face is a vertical plane standing on the ground: its offset changes linearly along
+  // it, its top and bottom outlines are straight lines, and its height in metres is the same at
+  // both parts. They are one face when most features over both, between the outlines through
+  // their centres, match the offset line through their centres; nothing in the gap fails to
+  // match it; its top outline matches; and the rows both share are textured beyond them.
   auto receding = [&](const ObstacleCluster& a, const ObstacleCluster& f) {
     const double da = a.offset_px, df = f.offset_px;
     if (df < 1.0 || da <= df + tol + 1) return false;
