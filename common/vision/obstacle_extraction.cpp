@@ -46,6 +46,16 @@ int countOnes(const std::uint8_t* p, int n) {
   return sum;
 }
 
+// The offset of what is behind (y, x) when nothing stands there: the ground line below the
+// horizon, the background above; -1 when unknown.
+int offsetBehind(const GroundProfile& ground, int y, int x) {
+  float b = ground.background_offset;
+  if (y >= ground.horizon_row && y < static_cast<int>(ground.offset_per_row.size()) &&
+      std::isfinite(ground.offset_per_row[static_cast<std::size_t>(y)]))
+    b = ground.offset_per_row[static_cast<std::size_t>(y)] + ground.offset_per_column * (x - ground.reference_column);
+  return std::isfinite(b) ? static_cast<int>(std::lround(b)) : -1;
+}
+
 // Share of features beside a plain gap, over the same rows, above which the surroundings are textured.
 constexpr double kPlainSurroundFraction = 0.2;
 
@@ -817,14 +827,7 @@ int ObstacleExtractor::trimOccludedLeft(const cv::Mat& left, const cv::Mat& righ
     throw InputError("obstacles: feature and label images must be mono8 of the same size");
   const int cols = left.cols;
   const int tol = params_.offset_tolerance_px;
-  // The offset of what is behind at (y, x): the ground below the horizon, the background above.
-  auto behind = [&](int y, int x) {
-    float b = ground.background_offset;
-    if (y >= ground.horizon_row && y < static_cast<int>(ground.offset_per_row.size()) &&
-        std::isfinite(ground.offset_per_row[static_cast<std::size_t>(y)]))
-      b = ground.offset_per_row[static_cast<std::size_t>(y)] + ground.offset_per_column * (x - ground.reference_column);
-    return std::isfinite(b) ? static_cast<int>(std::lround(b)) : -1;
-  };
+  auto behind = [&](int y, int x) { return offsetBehind(ground, y, x); };
   int trimmed = 0;
   for (ObstacleCluster& o : obstacles) {
     const int d = o.offset_px;
@@ -907,11 +910,11 @@ void ObstacleExtractor::foldInto(std::size_t& i, const cv::Rect& reach, int d_lo
   obstacles.assign(kept.begin(), kept.end());
 }
 
-int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right, GroundSource ground_source,
+int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
                                       cv::Mat& labels, std::vector<ObstacleCluster>& obstacles, double baseline_m) {
   // A plain gap is evidence of a face only where the ground behind it would show texture: on
   // frames whose ground line could not be measured from texture nothing is joined.
-  if (!params_.join_plain_faces || baseline_m <= 0.0 || ground_source != GroundSource::kHough) return 0;
+  if (!params_.join_plain_faces || baseline_m <= 0.0 || ground.source != GroundSource::kHough) return 0;
   if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() || labels.size() != left.size() ||
       labels.type() != CV_8UC1)
     throw InputError("obstacles: feature and label images must be mono8 of the same size");
@@ -988,13 +991,15 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       ++joins;
     }
   }
-  // Faces receding in depth (a long wall seen at an angle, plain where it is near and textured
-  // far away): a near part `a` and a far part `f` at a smaller offset with a plain gap between
-  // them. The face is a vertical plane standing on the ground: its offset changes linearly along
-  // it, its top and bottom outlines are straight lines, and its height in metres is the same at
-  // both parts. They are one face when most features over both, between the outlines through
-  // their centres, match the offset line through their centres; nothing in the gap fails to
-  // match it; its top outline matches; and the rows both share are textured beyond them.
+  // Faces receding in depth (a long wall seen at an angle): a near part `a` and a far part `f`
+  // at a smaller offset with a gap between them (a wall plain where near and textured far away,
+  // or a textured wall whose matches held over a few offsets at a time, so the growth over
+  // offsets stopped). The face is a vertical plane standing on the ground: its offset changes
+  // linearly along it, its top and bottom outlines are straight lines, and its height in metres
+  // is the same at both parts. They are one face when most features over both, between the
+  // outlines through their centres, match the offset line through their centres, and the gap
+  // is the face's: textured with features matching the line rather than what is behind, or
+  // plain with its top outline matching and textured surroundings.
   auto receding = [&](const ObstacleCluster& a, const ObstacleCluster& f) {
     const double da = a.offset_px, df = f.offset_px;
     if (df < 1.0 || da <= df + tol + 1) return false;
@@ -1005,7 +1010,8 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
     if (std::max(ha, hf) > (1.0 + params_.plain_height_tolerance) * std::min(ha, hf)) return false;
     const double ca = a.box.x + 0.5 * (a.box.width - 1), cf = f.box.x + 0.5 * (f.box.width - 1);
     if (std::abs(cf - ca) < 1.0) return false;
-    int features = 0, matched = 0, gap_other = 0, gap_area = 0, outlined = 0;
+    int features = 0, matched = 0, gap_other = 0, gap_area = 0, outlined = 0, gap_features = 0, gap_matched = 0;
+    bool blocked = false;
     for (int x = std::min(a.box.x, f.box.x); x < std::max(a_end, f_end); ++x) {
       const double t = (x - ca) / (cf - ca);
       const double d = da + t * (df - da);
@@ -1020,17 +1026,27 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       };
       const bool in_gap = (x >= a_end || x < a.box.x) && (x >= f_end || x < f.box.x);
       const int margin = std::max(2, (bottom - top + 1) / 8);
-      int other = 0, rows_in = 0;
+      int other = 0, rows_in = 0, column_features = 0, column_matched = 0;
       for (int y = std::max(0, top); y <= std::min(left.rows - 1, bottom); ++y) {
         if (labels.ptr<std::uint8_t>(y)[x] == kLabelNone) continue;
         const bool m = onFace(y);
         ++features;
         matched += m;
         other += !m && y >= top + margin && y <= bottom - margin;
+        ++column_features;
+        // In a textured gap, a match that the ground or background behind explains as well is no evidence.
+        if (m && in_gap) {
+          const int b = offsetBehind(ground, y, x);
+          column_matched += b < 0 || b >= d0 - 1 ||
+                            !matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, b - tol, b + tol,
+                                     params_.grey_tolerance, params_.match_half_window_px, cols);
+        }
       }
       if (!in_gap) continue;
       rows_in = std::max(0, bottom - top + 1 - 2 * margin);
-      if (4 * other > rows_in) return false;  // something in front of the face, or no face
+      blocked |= 4 * other > rows_in;  // something in front of a plain face, or no face
+      gap_features += column_features;
+      gap_matched += column_matched;
       gap_other += other;
       gap_area += rows_in;
       bool hit = false;
@@ -1038,8 +1054,14 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       outlined += hit;
     }
     if (features == 0 || matched < params_.min_match_fraction * features) return false;
-    // The rows both parts share are textured beyond them: the plain gap hides something (far
-    // ground near the horizon is plain too).
+    // A textured gap (the face's own texture): most of its features match the offset line and
+    // not the ground or background behind them.
+    if (gap_features >= kPlainSurroundFraction * gap_area && gap_matched >= params_.min_match_fraction * gap_features)
+      return true;
+    // A plain gap: nothing in it that does not match the line, ...
+    if (blocked) return false;
+    // ... its top outline matching, and the rows both parts share textured beyond them: the
+    // plain gap hides something (far ground near the horizon is plain too).
     const bool f_left = cf < ca;
     const int dir = f_left ? -1 : +1;
     const int ya = std::max(a.box.y, f.box.y), yb = std::min(a.box.y + a.box.height, f.box.y + f.box.height) - 1;

@@ -164,8 +164,8 @@ class ObstacleExtractor {
   // Joins the two sides of plain faces (ObstacleParams::join_plain_faces): `left` is the whole
   // left feature image (before any removal), `labels` as left by compute(); joined obstacles
   // are relabelled and the later ones renumbered. Only on frames whose ground line was
-  // measured (ground_source kHough). Returns the number of joins.
-  int joinPlainFaces(const cv::Mat& left, const cv::Mat& right, GroundSource ground_source, cv::Mat& labels,
+  // measured (ground.source kHough). Returns the number of joins.
+  int joinPlainFaces(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
                      std::vector<ObstacleCluster>& obstacles, double baseline_m);
 
   const ObstacleParams& params() const { return params_; }

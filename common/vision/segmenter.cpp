@@ -84,7 +84,7 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
   obstacles_.compute(remaining_, right_features, out.ground, correlator_, obstacle_score_, matches_, changed_rows_,
                      out.labels, out.obstacles, rig.baseline_m);
   obstacles_.trimOccludedLeft(left_features, right_features, out.ground, out.labels, out.obstacles);
-  obstacles_.joinPlainFaces(left_features, right_features, out.ground.source, out.labels, out.obstacles,
+  obstacles_.joinPlainFaces(left_features, right_features, out.ground, out.labels, out.obstacles,
                             rig.baseline_m);
   out.timing_ms["obstacles"] = msSince(t);
   out.timing_ms["total"] = msSince(start);

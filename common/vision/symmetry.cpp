@@ -197,7 +197,8 @@ void SymmetryScanner::prepare(const cv::Mat& grey, const cv::Mat& weights) {
   integralOf(mq_, mirror_integral_);
   cv::integral(grey, grey_integral_, grey_sq_integral_, CV_64F, CV_64F);
   col_nonzero_ = scratch(colnz_store_, rows + 1, cols, CV_32SC1);
-  col_nonzero_.row(0).setTo(0);
+  // (cv::Mat::setTo allocates a buffer of its own for wide rows.)
+  std::memset(col_nonzero_.ptr<int>(0), 0, static_cast<std::size_t>(cols) * sizeof(int));
   for (int r = 0; r < rows; ++r) {
     const auto* q = wq_.ptr<std::int32_t>(r);
     const int* above = col_nonzero_.ptr<int>(r);
