@@ -53,7 +53,9 @@ for lib in "${!needed_by[@]}"; do
   [ -n "$path" ] || { fail "${needed_by[$lib]} needs $lib, not found on this machine"; continue; }
   pkg=$(dpkg -S "$(readlink -f "$path")" 2>/dev/null | head -1 | cut -d: -f1)
   [ -n "$pkg" ] || pkg=$(dpkg -S "$path" 2>/dev/null | head -1 | cut -d: -f1)
-  printf '%s\n' "${runtime_pkgs[@]}" | grep -qx "$pkg" \
+  # A here-string, not a pipe: grep -q stops reading at the first match, and with pipefail the
+  # writer's SIGPIPE would count as a failure.
+  grep -qxF "$pkg" <<<"$(printf '%s\n' "${runtime_pkgs[@]}")" \
     || fail "${needed_by[$lib]} needs $lib from package '$pkg', missing in docker/runtime-packages.txt"
 done
 [ "$failures" = "$before" ] && ok "docker/runtime-packages.txt provides every library of $# executables"
