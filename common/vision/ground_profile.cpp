@@ -325,7 +325,7 @@ GroundLine GroundEstimator::refit(const GroundLine& line, int row_begin, int row
   return out;
 }
 
-float GroundEstimator::backgroundOffset(const cv::Mat& score, int rows_above) {
+float GroundEstimator::backgroundOffset(const cv::Mat& score, int rows_above, const std::vector<float>& ground_per_row) {
   const int rows = std::clamp(rows_above, 0, score.rows);
   if (rows == 0) return 0.0f;
   std::vector<float>& sums = background_sums_;
@@ -334,9 +334,32 @@ float GroundEstimator::backgroundOffset(const cv::Mat& score, int rows_above) {
     const float* s = score.ptr<float>(y);
     for (int d = 0; d < score.cols; ++d) sums[static_cast<std::size_t>(d)] += s[d];
   }
-  const auto best = std::max_element(sums.begin(), sums.end());
-  if (*best < params_.min_background_score) return 0.0f;  // nothing measurable: infinity
-  return static_cast<float>(best - sums.begin());
+  // The strongest column first; one that would hide measured ground is something standing in
+  // front (a pole or a trunk taller than the view, alone against a plain sky), not the background.
+  for (;;) {
+    const auto best = std::max_element(sums.begin(), sums.end());
+    if (*best < params_.min_background_score) return 0.0f;  // nothing measurable: infinity
+    const auto offset = static_cast<float>(best - sums.begin());
+    if (!hidesMeasuredGround(offset, ground_per_row)) return offset;
+    *best = -1.0f;
+  }
+}
+
+bool GroundEstimator::hidesMeasuredGround(float offset, const std::vector<float>& ground_per_row) const {
+  const double tol = params_.support_tolerance_px;
+  int hidden = 0, shown = 0;
+  for (std::size_t y = 0; y < ground_per_row.size() && y + 1 < row_peak_begin_.size(); ++y) {
+    const double d = ground_per_row[y];
+    if (!(d >= 1.0) || d > static_cast<double>(offset) - 1.0 - tol) continue;  // not hidden (or not ground)
+    ++hidden;
+    for (int i = row_peak_begin_[y]; i < row_peak_begin_[y + 1]; ++i) {
+      if (std::abs(peaks_[static_cast<std::size_t>(i)].offset - d) <= tol) {
+        ++shown;
+        break;
+      }
+    }
+  }
+  return shown >= params_.min_segment_rows && shown >= params_.min_support_fraction * hidden;
 }
 
 bool GroundEstimator::rollSetUp(const cv::Mat& left, const StereoRig& rig, GroundProfile& ground) const {
@@ -580,7 +603,7 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
   // Background: the offset dominating the rows where the ground would be farther than 1 px.
   int rows_above = 0;
   while (rows_above < rows && out.offset_per_row[static_cast<std::size_t>(rows_above)] < 1.0f) ++rows_above;
-  const float background = backgroundOffset(score, rows_above);
+  const float background = backgroundOffset(score, rows_above, out.offset_per_row);
   int horizon = 0;
   while (horizon < rows && out.offset_per_row[static_cast<std::size_t>(horizon)] < background) ++horizon;
   for (int y = 0; y < horizon; ++y) out.offset_per_row[static_cast<std::size_t>(y)] = background;

@@ -126,7 +126,12 @@ class GroundEstimator {
   void rollFit(int width, GroundProfile& ground);
   int support(const GroundLine& line, int row_begin, int row_end, int offsets, int* crossed) const;
   GroundLine refit(const GroundLine& line, int row_begin, int row_end) const;
-  float backgroundOffset(const cv::Mat& score, int rows_above);
+  // The offset dominating the score of the first `rows_above` rows whose background would not
+  // hide measured ground: a background at offset b hides every ground row nearer than b.
+  float backgroundOffset(const cv::Mat& score, int rows_above, const std::vector<float>& ground_per_row);
+  // True when the ground rows a background at `offset` would hide show the ground (peaks on
+  // `ground_per_row`) as a measured segment does: min_segment_rows and min_support_fraction.
+  bool hidesMeasuredGround(float offset, const std::vector<float>& ground_per_row) const;
 
   GroundParams params_;
   std::vector<Peak> peaks_;

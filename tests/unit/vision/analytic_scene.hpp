@@ -31,6 +31,7 @@ struct AnalyticSceneParams {
   double slope = 0.0;          // rise per metre forward beyond slope_start_m
   double slope_start_m = 1e9;  // flat up to here
   double background_m = 120.0;
+  double background_height_m = std::numeric_limits<double>::infinity();  // textured up to this height, plain sky above
   double ground_cell_m = 0.08;  // texture cell sizes
   double object_cell_m = 0.05;
   int ground_contrast = 180;    // grey range of the ground texture (small = weak texture)
@@ -106,6 +107,7 @@ inline AnalyticScene renderAnalyticScene(const AnalyticSceneParams& p) {
         double z_best = zg;
         double value;
         if (zg < p.background_m) value = textureAt(ox + rx * zg, zg, p.ground_cell_m, p.seed, 128 - p.ground_contrast / 2, p.ground_contrast);
+        else if (p.camera_height_m - ry * p.background_m > p.background_height_m) value = 200.0;  // sky
         else value = textureAt(ox + rx * p.background_m, ry * p.background_m, 0.6, p.seed + 7, 30, 200);
         for (std::size_t k = 0; k < p.boxes.size(); ++k) {
           const AnalyticBox& b = p.boxes[k];

@@ -76,6 +76,32 @@ TEST(SegmenterAnalytic, BoxesFoundAtTheirOffsets) {
   EXPECT_LE(r.obstacles.size(), scene.box_rects.size() + 1);
 }
 
+// A near pole taller than the view is a vertical line in the correlation image from the top
+// row down to its foot. Against a plain sky it is the only thing the top rows show, so it
+// outweighs the far background (a band of hills). Taken for the background, it would hide
+// every ground row nearer than itself (the whole image for a pole a few metres away). The
+// ground visibly continues behind it, so the background is farther.
+TEST(SegmenterAnalytic, NearPoleIsNotTheBackground) {
+  for (const double z : {4.0, 7.0}) {
+    AnalyticSceneParams sp;
+    sp.background_height_m = 8.0;
+    sp.boxes = {AnalyticBox{0.4, z, 0.3, 12.0}};
+    const auto scene = renderAnalyticScene(sp);
+    FeatureExtractor fx;
+    Segmenter seg(paramsFor(64));
+    SegmentationResult r;
+    segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+    EXPECT_EQ(r.ground.source, GroundSource::kHough) << "pole at " << z << " m";
+    EXPECT_NEAR(r.ground.background_offset, scene.background_offset, 1.0) << "pole at " << z << " m";
+    EXPECT_GE(groundRowsWithin1(r.ground, scene.ground_offset_per_row, 64), 0.9) << "pole at " << z << " m";
+    const cv::Rect pole = scene.box_rects[0] & cv::Rect(0, 0, scene.left.cols, scene.left.rows);
+    bool found = false;
+    for (const ObstacleCluster& o : r.obstacles)
+      found = found || (test::iou(o.box, pole) >= 0.5 && std::abs(o.offset_px - scene.box_offsets[0]) <= 1.0f);
+    EXPECT_TRUE(found) << "pole " << pole << " at offset " << scene.box_offsets[0] << " (" << z << " m) not found";
+  }
+}
+
 // An untextured face (a wall, a box, a vehicle's side) shows features only along its outline:
 // without joining, at most its sides are found as narrow obstacles; joined, one obstacle covers it.
 TEST(SegmenterAnalytic, PlainFaceIsOneObstacle) {
