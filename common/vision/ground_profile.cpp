@@ -347,19 +347,22 @@ float GroundEstimator::backgroundOffset(const cv::Mat& score, int rows_above, co
 
 bool GroundEstimator::hidesMeasuredGround(float offset, const std::vector<float>& ground_per_row) const {
   const double tol = params_.support_tolerance_px;
-  int hidden = 0, shown = 0;
+  const double hidden_below = static_cast<double>(offset) - 1.0 - tol;
+  int hidden = 0, shown = 0, supported = 0;
   for (std::size_t y = 0; y < ground_per_row.size() && y + 1 < row_peak_begin_.size(); ++y) {
-    const double d = ground_per_row[y];
-    if (!(d >= 1.0) || d > static_cast<double>(offset) - 1.0 - tol) continue;  // not hidden (or not ground)
+    const auto d = static_cast<double>(ground_per_row[y]);
+    if (!(d >= 1.0)) continue;  // not ground (or farther than the background can be)
+    bool on_line = false;
+    for (int i = row_peak_begin_[y]; i < row_peak_begin_[y + 1] && !on_line; ++i)
+      on_line = std::abs(peaks_[static_cast<std::size_t>(i)].offset - d) <= tol;
+    supported += on_line ? 1 : 0;
+    if (d > hidden_below) continue;
     ++hidden;
-    for (int i = row_peak_begin_[y]; i < row_peak_begin_[y + 1]; ++i) {
-      if (std::abs(peaks_[static_cast<std::size_t>(i)].offset - d) <= tol) {
-        ++shown;
-        break;
-      }
-    }
+    shown += on_line ? 1 : 0;
   }
-  return shown >= params_.min_segment_rows && shown >= params_.min_support_fraction * hidden;
+  // Measured there as a segment is, and a measured share of the whole line.
+  return shown >= params_.min_segment_rows && shown >= params_.min_support_fraction * hidden &&
+         shown >= params_.min_support_fraction * supported;
 }
 
 bool GroundEstimator::rollSetUp(const cv::Mat& left, const StereoRig& rig, GroundProfile& ground) const {

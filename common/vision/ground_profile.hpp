@@ -130,7 +130,8 @@ class GroundEstimator {
   // hide measured ground: a background at offset b hides every ground row nearer than b.
   float backgroundOffset(const cv::Mat& score, int rows_above, const std::vector<float>& ground_per_row);
   // True when the ground rows a background at `offset` would hide show the ground (peaks on
-  // `ground_per_row`) as a measured segment does: min_segment_rows and min_support_fraction.
+  // `ground_per_row`) as a measured segment does (min_segment_rows, and min_support_fraction of
+  // the hidden rows) and make up min_support_fraction of all the rows supporting the ground.
   bool hidesMeasuredGround(float offset, const std::vector<float>& ground_per_row) const;
 
   GroundParams params_;
