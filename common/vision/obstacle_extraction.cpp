@@ -910,6 +910,47 @@ void ObstacleExtractor::foldInto(std::size_t& i, const cv::Rect& reach, int d_lo
   obstacles.assign(kept.begin(), kept.end());
 }
 
+int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
+                                      std::vector<ObstacleCluster>& obstacles) const {
+  if (!params_.trim_plain_sides) return 0;
+  if (left.type() != CV_8UC1 || labels.size() != left.size() || labels.type() != CV_8UC1)
+    throw InputError("obstacles: feature and label images must be mono8 of the same size");
+  const int cols = left.cols;
+  const int tol = params_.grey_tolerance;
+  // Does column x hold a pixel of obstacle o whose horizontal neighbours differ by more than tol?
+  auto pins = [&](const ObstacleCluster& o, int x) {
+    if (x <= 0 || x >= cols - 1) return true;  // the image border: nothing to compare, keep
+    for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
+      if (labels.ptr<std::uint8_t>(y)[x] != o.label) continue;
+      const std::uint8_t* l = left.ptr<std::uint8_t>(y);
+      if (l[x - 1] != 0 && l[x + 1] != 0 && std::abs(static_cast<int>(l[x + 1]) - static_cast<int>(l[x - 1])) > tol)
+        return true;
+    }
+    return false;
+  };
+  int trimmed = 0;
+  for (ObstacleCluster& o : obstacles) {
+    int x0 = o.box.x, x1 = o.box.x + o.box.width - 1;
+    const int reach = params_.plain_side_reach_px;
+    while (x0 < std::min(x1, o.box.x + reach) && !pins(o, x0)) ++x0;
+    const int right_stop = std::max(x0, o.box.x + o.box.width - 1 - reach);
+    while (x1 > right_stop && !pins(o, x1)) --x1;
+    if (x0 == o.box.x && x1 == o.box.x + o.box.width - 1) continue;
+    for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
+      std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+      for (int c = o.box.x; c < o.box.x + o.box.width; ++c) {
+        if (lab[c] != o.label || (c >= x0 && c <= x1)) continue;
+        lab[c] = kLabelUnassigned;
+        --o.feature_count;
+      }
+    }
+    trimmed += o.box.width - (x1 - x0 + 1);
+    o.box.x = x0;
+    o.box.width = x1 - x0 + 1;
+  }
+  return trimmed;
+}
+
 int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
                                       cv::Mat& labels, std::vector<ObstacleCluster>& obstacles, double baseline_m) {
   // A plain gap is evidence of a face only where the ground behind it would show texture: on

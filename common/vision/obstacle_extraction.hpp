@@ -24,7 +24,9 @@
 //    has a person's size in metres (far people show only a few dozen rows);
 //  - after the loop, a left-right test trims the band left of each obstacle that only the
 //    left camera sees (trimOccludedLeft), and the sides of plain faces, at one offset or
-//    receding in depth, are joined into one obstacle (joinPlainFaces).
+//    receding in depth, are joined into one obstacle (joinPlainFaces); last, side columns
+//    whose pixels do not pin the offset (the feature mask's reach into a plain surround) are
+//    trimmed (trimPlainSides).
 #include <cstdint>
 #include <vector>
 
@@ -71,6 +73,10 @@ struct ObstacleParams {
   // their outline: the two sides come out as narrow obstacles at one offset. They are one
   // obstacle when the columns between them are plain and the face's top outline joins them.
   bool trim_occluded_left = true;  // left-right consistency on the band left of each obstacle
+  // The dilated feature mask reaches past an object's outline; against a plain or smooth
+  // surround those pixels match at the object's offset as well as at any other.
+  bool trim_plain_sides = true;    // side columns without a pixel that pins the offset are trimmed ...
+  int plain_side_reach_px = 3;     // ... up to this many per side: the features' dilation (2) plus the Sobel's 1
   bool join_plain_faces = true;
   double plain_max_feature_fraction = 0.05;  // feature share of the gap's inner rows up to which it is plain
   double plain_min_outline_fraction = 0.5;   // share of the gap's columns whose top outline matches at the offset
@@ -116,6 +122,10 @@ struct ObstacleParams {
     v.field("merge_overlap", merge_overlap, 0.0, 1.0, "", "overlap merging a cluster into an earlier one");
     v.field("trim_occluded_left", trim_occluded_left, 0, 1, "",
             "trim the band left of an obstacle that only the left camera sees");
+    v.field("trim_plain_sides", trim_plain_sides, 0, 1, "",
+            "trim side columns whose matched pixels lie in plain surroundings (the feature mask's reach)");
+    v.field("plain_side_reach_px", plain_side_reach_px, 0, 64, "pixels",
+            "most columns trimmed per side: how far the feature mask reaches past an outline");
     v.field("join_plain_faces", join_plain_faces, 0, 1, "", "join the two sides of a plain face");
     v.field("plain_max_feature_fraction", plain_max_feature_fraction, 0.0, 1.0, "",
             "feature share of the gap between two sides up to which it is plain");
@@ -160,6 +170,13 @@ class ObstacleExtractor {
   // Returns the number of columns trimmed.
   int trimOccludedLeft(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
                        std::vector<ObstacleCluster>& obstacles) const;
+
+  // Trims each obstacle's side columns that hold no pixel pinning the offset
+  // (ObstacleParams::trim_plain_sides): a pixel pins it when its left and right neighbours in
+  // the left feature image differ by more than grey_tolerance; elsewhere a match holds at any
+  // offset (the plain surround that the dilated feature mask reaches beside an outline).
+  // `left` is the whole left feature image. Returns the number of columns trimmed.
+  int trimPlainSides(const cv::Mat& left, cv::Mat& labels, std::vector<ObstacleCluster>& obstacles) const;
 
   // Joins the two sides of plain faces (ObstacleParams::join_plain_faces): `left` is the whole
   // left feature image (before any removal), `labels` as left by compute(); joined obstacles

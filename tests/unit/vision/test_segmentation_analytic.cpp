@@ -102,6 +102,73 @@ TEST(SegmenterAnalytic, NearPoleIsNotTheBackground) {
   }
 }
 
+// The feature mask reaches a few pixels past an outline (dilation 2, plus the Sobel's 1). Against
+// a plain sky those pixels match at a pole's offset as at any other, and widened thin poles'
+// boxes by ~3 px a side on the generated scenes. A side column is kept when one of its pixels pins
+// the offset (its horizontal neighbours differ by more than the grey tolerance), and at most
+// plain_side_reach_px columns are trimmed per side.
+struct PoleFeatures {
+  cv::Mat features, labels;
+  ObstacleCluster cluster;
+};
+
+// A textured pole in columns [25, 30], rows 5-34, with `halo` columns of `surround` grey on each
+// side (texture everywhere when < 0), pole and halo labelled with one obstacle.
+PoleFeatures poleFeatures(int surround, int halo) {
+  PoleFeatures p;
+  p.features = cv::Mat::zeros(40, 70, CV_8UC1);
+  p.labels = cv::Mat::zeros(40, 70, CV_8UC1);
+  constexpr std::uint8_t kTexture[3] = {40, 120, 200};
+  const int x0 = 25 - halo, x1 = 30 + halo;
+  if (surround < 0)  // textured features (the ground, a textured wall) beyond the obstacle too
+    for (int y = 5; y < 35; ++y)
+      for (int x = 0; x < p.features.cols; ++x) p.features.at<std::uint8_t>(y, x) = kTexture[(x + y) % 3];
+  for (int y = 5; y < 35; ++y)
+    for (int x = x0; x <= x1; ++x) {
+      const bool pole = x >= 25 && x <= 30;
+      p.features.at<std::uint8_t>(y, x) =
+          pole || surround < 0 ? kTexture[(x + y) % 3] : static_cast<std::uint8_t>(surround);
+      p.labels.at<std::uint8_t>(y, x) = kLabelFirstObstacle;
+    }
+  p.cluster.offset_px = p.cluster.min_offset_px = p.cluster.max_offset_px = 20;
+  p.cluster.box = cv::Rect(x0, 5, x1 - x0 + 1, 30);
+  p.cluster.feature_count = 30 * (x1 - x0 + 1);
+  return p;
+}
+
+TEST(ObstacleSides, PlainSurroundOfAThinPoleIsTrimmed) {
+  const ObstacleExtractor extractor;
+  PoleFeatures p = poleFeatures(200, 3);  // the sky beside the pole
+  std::vector<ObstacleCluster> obstacles{p.cluster};
+  EXPECT_EQ(extractor.trimPlainSides(p.features, p.labels, obstacles), 4);
+  // The last sky column beside each side pins the offset (its neighbour is the pole).
+  EXPECT_EQ(obstacles[0].box, cv::Rect(24, 5, 8, 30));
+  EXPECT_EQ(obstacles[0].feature_count, 30 * 8);
+  EXPECT_EQ(p.labels.at<std::uint8_t>(10, 23), kLabelUnassigned);
+  EXPECT_EQ(p.labels.at<std::uint8_t>(10, 24), kLabelFirstObstacle);
+}
+
+TEST(ObstacleSides, TexturedSurroundAndWidePlainSidesAreKept) {
+  const ObstacleExtractor extractor;
+  PoleFeatures textured = poleFeatures(-1, 3);  // texture pins every column
+  std::vector<ObstacleCluster> obstacles{textured.cluster};
+  EXPECT_EQ(extractor.trimPlainSides(textured.features, textured.labels, obstacles), 0);
+  EXPECT_EQ(obstacles[0].box, textured.cluster.box);
+
+  PoleFeatures wide = poleFeatures(200, 8);  // more plain columns than the feature mask's reach
+  obstacles = {wide.cluster};
+  const int reach = ObstacleParams{}.plain_side_reach_px;
+  EXPECT_EQ(extractor.trimPlainSides(wide.features, wide.labels, obstacles), 2 * reach);
+  EXPECT_EQ(obstacles[0].box.x, wide.cluster.box.x + reach);
+  EXPECT_EQ(obstacles[0].box.width, wide.cluster.box.width - 2 * reach);
+
+  ObstacleParams off;
+  off.trim_plain_sides = false;
+  PoleFeatures plain = poleFeatures(200, 3);
+  obstacles = {plain.cluster};
+  EXPECT_EQ(ObstacleExtractor(off).trimPlainSides(plain.features, plain.labels, obstacles), 0);
+}
+
 // An untextured face (a wall, a box, a vehicle's side) shows features only along its outline:
 // without joining, at most its sides are found as narrow obstacles; joined, one obstacle covers it.
 TEST(SegmenterAnalytic, PlainFaceIsOneObstacle) {
