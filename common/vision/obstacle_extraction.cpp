@@ -990,8 +990,42 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       for (int f = 0; x >= 0 && x < cols && std::abs(x - first) <= max_gap && plain(f = featuresIn(x)); x += dir)
         features += f;
       const int gap = std::abs(x - first);
-      if (gap == 0 || x < 0 || x >= cols || gap > max_gap) continue;
+      if (gap == 0) continue;
       if (features > params_.plain_max_feature_fraction * inner * gap) continue;
+      auto topHit = [&](int k) {
+        bool hit = false;
+        for (int y = std::max(0, a.box.y - 2); y <= std::min(left.rows - 1, a.box.y + 2) && !hit; ++y) hit = matches(y, k);
+        return hit;
+      };
+      // One side only (the far side hidden, at the image border or not a face's): the face
+      // reaches as far as its top outline keeps matching in most columns.
+      auto oneSided = [&]() {
+        if (!params_.plain_one_sided) return false;
+        int hits = 0, end = -1;
+        for (int k = first; k != x; k += dir) {
+          if (!topHit(k)) continue;
+          ++hits;
+          if (hits >= params_.plain_min_outline_fraction * (std::abs(k - first) + 1)) end = k;
+        }
+        if (end < 0 || std::abs(end - first) + 1 < std::max(8, a.box.width)) return false;
+        const int near_end = dir > 0 ? a.box.x - 1 : a.box.x + a.box.width;
+        const int beyond = std::min(std::abs(end - first) + 1, 2 * a.box.width);
+        int outside = 0, outside_columns = 0;
+        for (int k = 0; k < beyond; ++k) {
+          const int c = near_end - dir * k;
+          if (c < 0 || c >= cols) continue;
+          outside += featuresIn(c);
+          ++outside_columns;
+        }
+        if (outside_columns == 0 || outside < kPlainSurroundFraction * outside_columns * inner) return false;
+        const cv::Rect reach = a.box | cv::Rect(std::min(first, end), a.box.y, std::abs(end - first) + 1, 1);
+        foldInto(i, reach, a.min_offset_px - tol - 1, a.max_offset_px + tol + 1, labels, obstacles);
+        return true;
+      };
+      if (x < 0 || x >= cols || gap > max_gap) {
+        joins += oneSided() ? 1 : 0;
+        continue;
+      }
       // The far side: the columns after the gap whose features mostly match at the offsets.
       int far = x - dir;
       for (int k = x; k >= 0 && k < cols && std::abs(k - x) < std::max(a.box.width, 8); k += dir) {
@@ -1002,7 +1036,10 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         if (matched < params_.min_match_fraction * f) break;
         far = k;
       }
-      if (far == x - dir) continue;
+      if (far == x - dir) {
+        joins += oneSided() ? 1 : 0;
+        continue;
+      }
       // The top outline continues the obstacle's top: most gap columns hold, within 2 rows of
       // it, a feature matching at the offsets.
       int outlined = 0;

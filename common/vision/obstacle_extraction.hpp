@@ -82,6 +82,7 @@ struct ObstacleParams {
   double plain_min_outline_fraction = 0.5;   // share of the gap's columns whose top outline matches at the offset
   double plain_max_width_m = 15.0;           // widest gap joined (a long vehicle's side)
   double plain_height_tolerance = 0.25;      // a receding face's two sides: heights in metres within this
+  bool plain_one_sided = true;               // a face with one side found reaches as far as its top outline
   // Person-sized clusters below min_peak_matches / min_cluster_features: a person 25-35 m away
   // shows ~30-45 rows of a narrow outline. Such weaker clusters are kept when their size in
   // metres (from d* and the rig's baseline) is a person's. 0 turns this off.
@@ -134,6 +135,8 @@ struct ObstacleParams {
     v.field("plain_max_width_m", plain_max_width_m, 0.0, 1000.0, "metres", "widest plain gap joined");
     v.field("plain_height_tolerance", plain_height_tolerance, 0.0, 10.0, "",
             "relative difference of a receding face's side heights in metres");
+    v.field("plain_one_sided", plain_one_sided, 0, 1, "",
+            "extend a face with one side found (the other hidden or beyond the image) along its top outline");
     v.field("weak_peak_matches", weak_peak_matches, 0, 10000000, "pixels",
             "weakest offset histogram peak searched for person-sized clusters (0: off)");
     v.field("weak_cluster_features", weak_cluster_features, 1, 10000000, "pixels", "smallest person-sized cluster");

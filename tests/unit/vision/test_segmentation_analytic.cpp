@@ -203,6 +203,34 @@ TEST(SegmenterAnalytic, PlainFaceIsOneObstacle) {
   }
 }
 
+// A plain face cut by the image border (or whose far side is hidden) has one side only: it
+// reaches as far as its top outline keeps matching the side's offset.
+TEST(SegmenterAnalytic, PlainFaceCutByTheBorderIsOneObstacle) {
+  AnalyticSceneParams sp;
+  sp.boxes = {AnalyticBox{6.0, 8.0, 4.0, 2.0, 40}};
+  const auto scene = renderAnalyticScene(sp);
+  const cv::Rect truth = scene.box_rects[0] & cv::Rect(0, 0, scene.left.cols, scene.left.rows);
+  ASSERT_LT(truth.width, scene.box_rects[0].width) << "the face must be cut by the border";
+  for (const bool one_sided : {true, false}) {
+    SegmenterParams p = paramsFor(64);
+    p.obstacles.plain_one_sided = one_sided;
+    FeatureExtractor fx;
+    Segmenter seg(p);
+    SegmentationResult r;
+    segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+    const ObstacleCluster* found = nullptr;
+    for (const ObstacleCluster& o : r.obstacles)
+      if (test::iou(o.box, truth) >= 0.5) found = &o;
+    if (!one_sided) {
+      EXPECT_FALSE(found) << "found with its one side only: not plain";
+      continue;
+    }
+    ASSERT_TRUE(found) << truth << " not found";
+    EXPECT_NEAR(found->offset_px, scene.box_offsets[0], 1.0);
+    EXPECT_EQ(r.obstacles.size(), 1u);
+  }
+}
+
 // Two textured objects side by side at one distance on ground without texture: the plain
 // gap between them is ground, not a face, and they stay two obstacles.
 TEST(SegmenterAnalytic, PlainGroundBetweenTwoObjectsIsNoFace) {
