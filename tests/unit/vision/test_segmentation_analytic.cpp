@@ -169,6 +169,18 @@ TEST(ObstacleSides, TexturedSurroundAndWidePlainSidesAreKept) {
   EXPECT_EQ(ObstacleExtractor(off).trimPlainSides(plain.features, plain.labels, obstacles), 0);
 }
 
+// Segments `scene` with `p`; the last obstacle with IoU >= 0.5 against `truth`, or null.
+const ObstacleCluster* segmentAndFind(const test::AnalyticScene& scene, const SegmenterParams& p,
+                                      const cv::Rect& truth, SegmentationResult& r) {
+  FeatureExtractor fx;
+  Segmenter seg(p);
+  segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+  const ObstacleCluster* found = nullptr;
+  for (const ObstacleCluster& o : r.obstacles)
+    if (test::iou(o.box, truth) >= 0.5) found = &o;
+  return found;
+}
+
 // An untextured face (a wall, a box, a vehicle's side) shows features only along its outline:
 // without joining, at most its sides are found as narrow obstacles; joined, one obstacle covers it.
 TEST(SegmenterAnalytic, PlainFaceIsOneObstacle) {
@@ -179,13 +191,8 @@ TEST(SegmenterAnalytic, PlainFaceIsOneObstacle) {
   for (const bool join : {true, false}) {
     SegmenterParams p = paramsFor(64);
     p.obstacles.join_plain_faces = join;
-    FeatureExtractor fx;
-    Segmenter seg(p);
     SegmentationResult r;
-    segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
-    const ObstacleCluster* found = nullptr;
-    for (const ObstacleCluster& o : r.obstacles)
-      if (test::iou(o.box, truth) >= 0.5) found = &o;
+    const ObstacleCluster* found = segmentAndFind(scene, p, truth, r);
     if (!join) {
       EXPECT_FALSE(found) << "the face is found without joining: not plain";
       continue;
@@ -214,13 +221,8 @@ TEST(SegmenterAnalytic, PlainFaceCutByTheBorderIsOneObstacle) {
   for (const bool one_sided : {true, false}) {
     SegmenterParams p = paramsFor(64);
     p.obstacles.plain_one_sided = one_sided;
-    FeatureExtractor fx;
-    Segmenter seg(p);
     SegmentationResult r;
-    segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
-    const ObstacleCluster* found = nullptr;
-    for (const ObstacleCluster& o : r.obstacles)
-      if (test::iou(o.box, truth) >= 0.5) found = &o;
+    const ObstacleCluster* found = segmentAndFind(scene, p, truth, r);
     if (!one_sided) {
       EXPECT_FALSE(found) << "found with its one side only: not plain";
       continue;
