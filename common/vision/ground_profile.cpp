@@ -279,19 +279,19 @@ std::optional<GroundLine> GroundEstimator::houghFast(const std::vector<std::uint
   return line;
 }
 
+bool GroundEstimator::peakNear(int y, double d) const {
+  for (int i = row_peak_begin_[static_cast<std::size_t>(y)]; i < row_peak_begin_[static_cast<std::size_t>(y) + 1]; ++i)
+    if (std::abs(peaks_[static_cast<std::size_t>(i)].offset - d) <= params_.support_tolerance_px) return true;
+  return false;
+}
+
 int GroundEstimator::support(const GroundLine& line, int row_begin, int row_end, int offsets, int* crossed) const {
   int count = 0, seen = 0;
   for (int y = std::max(row_begin, 0); y < row_end; ++y) {
     const double d = line.offsetAt(y);
     if (d < 0.5 || d > offsets - 1) continue;
     ++seen;
-    for (int i = row_peak_begin_[static_cast<std::size_t>(y)]; i < row_peak_begin_[static_cast<std::size_t>(y) + 1];
-         ++i) {
-      if (std::abs(peaks_[static_cast<std::size_t>(i)].offset - d) <= params_.support_tolerance_px) {
-        ++count;
-        break;
-      }
-    }
+    count += peakNear(y, d) ? 1 : 0;
   }
   if (crossed) *crossed = seen;
   return count;
@@ -352,9 +352,7 @@ bool GroundEstimator::hidesMeasuredGround(float offset, const std::vector<float>
   for (std::size_t y = 0; y < ground_per_row.size() && y + 1 < row_peak_begin_.size(); ++y) {
     const auto d = static_cast<double>(ground_per_row[y]);
     if (!(d >= 1.0)) continue;  // not ground (or farther than the background can be)
-    bool on_line = false;
-    for (int i = row_peak_begin_[y]; i < row_peak_begin_[y + 1] && !on_line; ++i)
-      on_line = std::abs(peaks_[static_cast<std::size_t>(i)].offset - d) <= tol;
+    const bool on_line = peakNear(static_cast<int>(y), d);
     supported += on_line ? 1 : 0;
     if (d > hidden_below) continue;
     ++hidden;

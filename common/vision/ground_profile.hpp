@@ -124,6 +124,8 @@ class GroundEstimator {
   // Roll: rows, strips and offsets to histogram; false when the roll is not estimated.
   bool rollSetUp(const cv::Mat& left, const StereoRig& rig, GroundProfile& ground) const;
   void rollFit(int width, GroundProfile& ground);
+  // Row y has a peak within support_tolerance_px of offset d.
+  bool peakNear(int y, double d) const;
   int support(const GroundLine& line, int row_begin, int row_end, int offsets, int* crossed) const;
   GroundLine refit(const GroundLine& line, int row_begin, int row_end) const;
   // The offset dominating the score of the first `rows_above` rows whose background would not

@@ -853,19 +853,23 @@ int ObstacleExtractor::trimOccludedLeft(const cv::Mat& left, const cv::Mat& righ
       if (own > 0 && 3 * ambiguous < 2 * own) break;  // the obstacle itself
     }
     if (x == o.box.x) continue;
-    for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
-      std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
-      for (int c = o.box.x; c < x; ++c) {
-        if (lab[c] != o.label) continue;
-        lab[c] = kLabelUnassigned;
-        --o.feature_count;
-      }
-    }
     trimmed += x - o.box.x;
-    o.box.width -= x - o.box.x;
-    o.box.x = x;
+    narrowTo(o, x, o.box.x + o.box.width - 1, labels);
   }
   return trimmed;
+}
+
+void ObstacleExtractor::narrowTo(ObstacleCluster& o, int x0, int x1, cv::Mat& labels) {
+  for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
+    std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+    for (int c = o.box.x; c < o.box.x + o.box.width; ++c) {
+      if (lab[c] != o.label || (c >= x0 && c <= x1)) continue;
+      lab[c] = kLabelUnassigned;
+      --o.feature_count;
+    }
+  }
+  o.box.x = x0;
+  o.box.width = x1 - x0 + 1;
 }
 
 void ObstacleExtractor::foldInto(std::size_t& i, const cv::Rect& reach, int d_lo, int d_hi, cv::Mat& labels,
@@ -936,17 +940,8 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
     const int right_stop = std::max(x0, o.box.x + o.box.width - 1 - reach);
     while (x1 > right_stop && !pins(o, x1)) --x1;
     if (x0 == o.box.x && x1 == o.box.x + o.box.width - 1) continue;
-    for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
-      std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
-      for (int c = o.box.x; c < o.box.x + o.box.width; ++c) {
-        if (lab[c] != o.label || (c >= x0 && c <= x1)) continue;
-        lab[c] = kLabelUnassigned;
-        --o.feature_count;
-      }
-    }
     trimmed += o.box.width - (x1 - x0 + 1);
-    o.box.x = x0;
-    o.box.width = x1 - x0 + 1;
+    narrowTo(o, x0, x1, labels);
   }
   return trimmed;
 }
@@ -997,6 +992,20 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         for (int y = std::max(0, a.box.y - 2); y <= std::min(left.rows - 1, a.box.y + 2) && !hit; ++y) hit = matches(y, k);
         return hit;
       };
+      // Features (count, columns) in the `beyond` columns past the obstacle's near side, and past
+      // column `far` on the other side when there is one (far >= 0).
+      const int near_end = dir > 0 ? a.box.x - 1 : a.box.x + a.box.width;
+      auto featuresBeside = [&](int beyond, int far) {
+        int outside = 0, outside_columns = 0;
+        for (int k = 0; k < beyond; ++k) {
+          for (const int c : {near_end - dir * k, far >= 0 ? far + dir * (k + 1) : -1}) {
+            if (c < 0 || c >= cols) continue;
+            outside += featuresIn(c);
+            ++outside_columns;
+          }
+        }
+        return std::pair<int, int>{outside, outside_columns};
+      };
       // One side only (the far side hidden, at the image border or not a face's): the face
       // reaches as far as its top outline keeps matching in most columns.
       auto oneSided = [&]() {
@@ -1008,15 +1017,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
           if (hits >= params_.plain_min_outline_fraction * (std::abs(k - first) + 1)) end = k;
         }
         if (end < 0 || std::abs(end - first) + 1 < std::max(8, a.box.width)) return false;
-        const int near_end = dir > 0 ? a.box.x - 1 : a.box.x + a.box.width;
-        const int beyond = std::min(std::abs(end - first) + 1, 2 * a.box.width);
-        int outside = 0, outside_columns = 0;
-        for (int k = 0; k < beyond; ++k) {
-          const int c = near_end - dir * k;
-          if (c < 0 || c >= cols) continue;
-          outside += featuresIn(c);
-          ++outside_columns;
-        }
+        const auto [outside, outside_columns] = featuresBeside(std::min(std::abs(end - first) + 1, 2 * a.box.width), -1);
         if (outside_columns == 0 || outside < kPlainSurroundFraction * outside_columns * inner) return false;
         const cv::Rect reach = a.box | cv::Rect(std::min(first, end), a.box.y, std::abs(end - first) + 1, 1);
         foldInto(i, reach, a.min_offset_px - tol - 1, a.max_offset_px + tol + 1, labels, obstacles);
@@ -1043,24 +1044,10 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       // The top outline continues the obstacle's top: most gap columns hold, within 2 rows of
       // it, a feature matching at the offsets.
       int outlined = 0;
-      for (int k = first; k != x; k += dir) {
-        const int yt = a.box.y;
-        bool hit = false;
-        for (int y = std::max(0, yt - 2); y <= std::min(left.rows - 1, yt + 2) && !hit; ++y) hit = matches(y, k);
-        outlined += hit;
-      }
+      for (int k = first; k != x; k += dir) outlined += topHit(k) ? 1 : 0;
       // The gap is plain where the same rows beyond both sides are not: something hides what
       // is behind it (on ground without texture a plain gap may be the ground itself).
-      const int beyond = std::min(gap, 2 * a.box.width);
-      int outside = 0, outside_columns = 0;
-      const int near_end = dir > 0 ? a.box.x - 1 : a.box.x + a.box.width;
-      for (int k = 0; k < beyond; ++k) {
-        for (const int c : {near_end - dir * k, far + dir * (k + 1)}) {
-          if (c < 0 || c >= cols) continue;
-          outside += featuresIn(c);
-          ++outside_columns;
-        }
-      }
+      const auto [outside, outside_columns] = featuresBeside(std::min(gap, 2 * a.box.width), far);
       if (outlined < params_.plain_min_outline_fraction * gap) continue;
       if (outside < kPlainSurroundFraction * outside_columns * inner) continue;
       // Joined: the box spans the far side, and obstacles there at the same offsets fold into it.

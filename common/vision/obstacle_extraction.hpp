@@ -274,6 +274,8 @@ class ObstacleExtractor {
   // [d_lo, d_hi]; the others are renumbered with their labels, and i follows obstacle i.
   void foldInto(std::size_t& i, const cv::Rect& reach, int d_lo, int d_hi, cv::Mat& labels,
                 std::vector<ObstacleCluster>& obstacles);
+  // Obstacle o keeps columns [x0, x1] of its box; its pixels outside become unassigned.
+  static void narrowTo(ObstacleCluster& o, int x0, int x1, cv::Mat& labels);
 };
 
 }  // namespace sg
