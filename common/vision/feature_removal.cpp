@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 
 #include "config/errors.hpp"
 #include "vision/parallel_bands.hpp"
@@ -11,6 +12,14 @@
 namespace sg {
 
 FeatureRemover::FeatureRemover(const RemovalParams& params) : params_(params) { params_.validate(); }
+
+float FeatureRemover::backgroundFloor(const GroundProfile& ground, bool ground_row) const {
+  // Rows above the horizon match the background line itself; below it the ground's offset
+  // never goes farther than the background's.
+  if (!ground_row || !params_.background_beside_ground || !std::isfinite(ground.background_offset))
+    return -std::numeric_limits<float>::infinity();
+  return ground.background_offset;
+}
 
 void FeatureRemover::prepare(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
                              cv::Mat& remaining, cv::Mat& labels, std::vector<std::uint8_t>& changed_rows) const {
@@ -44,19 +53,22 @@ void FeatureRemover::removeRows(const cv::Mat& left, const cv::Mat& right, const
     const bool is_ground = y >= ground.horizon_row;
     const std::uint8_t label = is_ground ? kLabelGround : kLabelBackground;
     // Transversal slope: the ground offset changes along the row (the background does not).
-    const float per_column = is_ground ? ground.offset_per_column : 0.0f;
+    const float per_column = is_ground ? ground.offsetPerColumnAt(y) : 0.0f;
+    const float floor_offset = backgroundFloor(ground, is_ground);
     bool changed = false;
     for (int x = 0; x < w; ++x) {
       const int a = l[x];
       if (a == 0) continue;
-      const float centre = offset + per_column * (static_cast<float>(x) - ground.reference_column);
+      const float along = offset + per_column * (static_cast<float>(x) - ground.reference_column);
+      const bool behind = along < floor_offset;  // the background shows here, not the ground
+      const float centre = behind ? floor_offset : along;
       const int d0 = std::max(static_cast<int>(std::floor(centre)) - params_.offset_tolerance_px, 0);
       const int d1 = static_cast<int>(std::ceil(centre)) + params_.offset_tolerance_px;
       for (int d = d0; d <= d1 && d <= x; ++d) {
         const int b = r[x - d];
         if (b != 0 && std::abs(a - b) <= tol) {
           out[x] = 0;
-          lab[x] = label;
+          lab[x] = behind ? std::uint8_t{kLabelBackground} : label;
           changed = true;
           break;
         }
@@ -73,9 +85,11 @@ void FeatureRemover::removeRowsFast(const cv::Mat& left, const cv::Mat& right, c
   const int tol = params_.grey_tolerance;
   const int otol = params_.offset_tolerance_px;
   scratch.marks.resize(static_cast<std::size_t>(w));
+  scratch.background.resize(static_cast<std::size_t>(w));
   scratch.d0.resize(static_cast<std::size_t>(w));
   scratch.d1.resize(static_cast<std::size_t>(w));
   std::uint8_t* marks = scratch.marks.data();
+  std::uint8_t* shows_background = scratch.background.data();
   int* d0 = scratch.d0.data();
   int* d1 = scratch.d1.data();
   for (int y = y0; y < y1; ++y) {
@@ -86,8 +100,9 @@ void FeatureRemover::removeRowsFast(const cv::Mat& left, const cv::Mat& right, c
     const float offset = ground.offset_per_row.empty() ? GroundProfile::kUnknown
                                                        : ground.offset_per_row[static_cast<std::size_t>(y)];
     const bool is_ground = y >= ground.horizon_row;
-    const float per_column = is_ground ? ground.offset_per_column : 0.0f;
+    const float per_column = is_ground ? ground.offsetPerColumnAt(y) : 0.0f;
     const float ref = ground.reference_column;
+    const float floor_offset = backgroundFloor(ground, is_ground);
     // Windows too far out for exact integer floor/ceil below go through the reference row.
     const bool tame = std::isfinite(offset) && std::isfinite(per_column) && std::isfinite(ref) &&
                       std::abs(offset) < 1e6f && std::abs(per_column) * (static_cast<float>(w) + std::abs(ref)) < 1e6f;
@@ -96,11 +111,15 @@ void FeatureRemover::removeRowsFast(const cv::Mat& left, const cv::Mat& right, c
       continue;
     }
     std::fill(marks, marks + w, std::uint8_t{0});
+    std::fill(shows_background, shows_background + w, std::uint8_t{0});
     bool changed = false;
     if (tame) {
       // The reference's window per column: floor/ceil of the same float centre.
       for (int x = 0; x < w; ++x) {
-        const float centre = offset + per_column * (static_cast<float>(x) - ref);
+        const float along = offset + per_column * (static_cast<float>(x) - ref);
+        const bool behind = along < floor_offset;
+        shows_background[x] = behind;
+        const float centre = behind ? floor_offset : along;
         const int t = static_cast<int>(centre);
         const float tf = static_cast<float>(t);
         const int fl = t - (centre < tf ? 1 : 0);
@@ -122,7 +141,8 @@ void FeatureRemover::removeRowsFast(const cv::Mat& left, const cv::Mat& right, c
       const std::uint8_t m = marks[x];
       const std::uint8_t a = l[x];
       out[x] = m ? std::uint8_t{0} : a;
-      lab[x] = a == 0 ? std::uint8_t{kLabelNone} : (m ? label : std::uint8_t{kLabelUnassigned});
+      lab[x] = a == 0 ? std::uint8_t{kLabelNone}
+                      : (m ? (shows_background[x] ? std::uint8_t{kLabelBackground} : label) : std::uint8_t{kLabelUnassigned});
       any |= m;
     }
     changed = any != 0;

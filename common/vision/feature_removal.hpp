@@ -18,11 +18,16 @@ struct RemovalParams {
   int offset_tolerance_px = 1;  // offsets within +-this of the polyline match (the line is quantised to rows)
   int grey_tolerance = 12;      // grey levels, as in the correlation
   int band_rows = 16;           // rows per TBB band
+  // On a transversal slope the horizon tilts: below the horizon row, where the ground at a
+  // column would be farther than the background, the background shows and is removed.
+  bool background_beside_ground = true;
 
   template <class V>
   void visit(V& v) {
     v.field("offset_tolerance_px", offset_tolerance_px, 0, 16, "pixels", "offset tolerance around the polyline");
     v.field("grey_tolerance", grey_tolerance, 0, 254, "grey levels", "largest left/right grey difference that matches");
+    v.field("background_beside_ground", background_beside_ground, 0, 1, "",
+            "below the horizon row, match the background where the ground would be farther");
     v.field("band_rows", band_rows, 1, 4096, "rows", "rows per parallel band");
   }
   void validate() const { validateParams(*this, "removal"); }
@@ -51,8 +56,11 @@ class FeatureRemover {
 
   // Fast rows: offset windows computed per column, matched by a vector kernel over runs
   // of columns sharing a window. scratch: per band, reused.
+  // The offset below which a ground row shows the background (-inf: none).
+  float backgroundFloor(const GroundProfile& ground, bool ground_row) const;
   struct BandScratch {
     std::vector<std::uint8_t> marks;
+    std::vector<std::uint8_t> background;  // per column: the background's offset, not the ground's
     std::vector<int> d0, d1;
   };
   void removeRowsFast(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& remaining,

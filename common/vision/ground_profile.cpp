@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <numeric>
 
 #include "config/errors.hpp"
 #include "vision/correlation.hpp"
@@ -363,11 +364,31 @@ bool GroundEstimator::hidesMeasuredGround(float offset, const std::vector<float>
          shown >= params_.min_support_fraction * supported;
 }
 
-bool GroundEstimator::rollSetUp(const cv::Mat& left, const StereoRig& rig, GroundProfile& ground) const {
+bool GroundEstimator::rollSetUp(const cv::Mat& left, const StereoRig& rig, GroundProfile& ground) {
   ground.offset_per_column = 0.0f;
+  ground.offset_per_column_by_row.clear();
   ground.reference_column = static_cast<float>(rig.focal_px > 0 ? rig.cx_px : left.cols / 2.0);
-  return params_.roll_strips >= 3 && ground.source != GroundSource::kNone && !left.empty() &&
-         static_cast<int>(ground.offset_per_row.size()) == left.rows;
+  if (params_.roll_strips < 3 || ground.source == GroundSource::kNone || left.empty() ||
+      static_cast<int>(ground.offset_per_row.size()) != left.rows)
+    return false;
+  // Ground rows in bands of profile_band_rows (a short last band joins the one above it).
+  roll_first_row_ = std::max(ground.horizon_row + 2, 0);
+  const int ground_rows = std::max(left.rows - roll_first_row_, 0);
+  const int band = params_.profile_band_rows;
+  roll_bands_ = band > 0 ? std::max(1, (ground_rows + band / 2) / band) : 1;
+  const int bins = 2 * params_.roll_search_px + 1;
+  // Sized for the most bands an image of this height can have: no allocation as the horizon moves.
+  const int most_bands = band > 0 ? std::max(1, (left.rows + band / 2) / band) : 1;
+  const std::size_t per_band = static_cast<std::size_t>(params_.roll_strips * bins);
+  if (roll_hist_.size() < static_cast<std::size_t>(most_bands) * per_band)
+    roll_hist_.resize(static_cast<std::size_t>(most_bands) * per_band);
+  std::fill(roll_hist_.begin(), roll_hist_.begin() + static_cast<std::ptrdiff_t>(roll_bands_ * per_band), 0.0);
+  return true;
+}
+
+int GroundEstimator::rollBand(int y) const {
+  const int band = params_.profile_band_rows;
+  return band > 0 ? std::min(roll_bands_ - 1, (y - roll_first_row_) / band) : 0;
 }
 
 namespace {
@@ -381,14 +402,14 @@ void GroundEstimator::estimateRollReference(const cv::Mat& left, const cv::Mat& 
   const int w = left.cols;
   const int search = params_.roll_search_px;
   const int bins = 2 * search + 1;
-  roll_hist_.assign(static_cast<std::size_t>(strips * bins), 0.0);
   const int tol = kRollGreyTolerance;
-  for (int y = std::max(ground.horizon_row + 2, 0); y < left.rows; ++y) {
+  for (int y = roll_first_row_; y < left.rows; ++y) {
     const float g = ground.offset_per_row[static_cast<std::size_t>(y)];
     if (!std::isfinite(g)) continue;
     const int base = static_cast<int>(std::lround(g));
     const std::uint8_t* l = left.ptr<std::uint8_t>(y);
     const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+    double* band_hist = &roll_hist_[static_cast<std::size_t>(rollBand(y) * strips * bins)];
     for (int k = 0; k < strips; ++k) {
       const int x0 = k * w / strips;
       const int x1 = (k + 1) * w / strips;
@@ -397,7 +418,7 @@ void GroundEstimator::estimateRollReference(const cv::Mat& left, const cv::Mat& 
         if (d < 0) continue;
         const int from = std::max(x0, d);
         if (from >= x1) continue;
-        roll_hist_[static_cast<std::size_t>(k * bins + b)] += countRowMatches(l, r, from, x1, d, tol);
+        band_hist[k * bins + b] += countRowMatches(l, r, from, x1, d, tol);
       }
     }
   }
@@ -411,18 +432,18 @@ void GroundEstimator::estimateRoll(const cv::Mat& left, const cv::Mat& right, co
   const int w = left.cols;
   const int search = params_.roll_search_px;
   const int bins = 2 * search + 1;
-  roll_hist_.assign(static_cast<std::size_t>(strips * bins), 0.0);
   roll_counts_.resize(static_cast<std::size_t>(simd::kLanes));
   // Right row with kLanes zeros in front: the window kernel reads up to kLanes - 1 before x - d_first.
   const int pad = simd::kLanes;
   roll_right_.resize(static_cast<std::size_t>(pad + w));
   std::fill(roll_right_.begin(), roll_right_.begin() + pad, std::uint8_t{0});
   std::uint8_t* rp = roll_right_.data() + pad;
-  for (int y = std::max(ground.horizon_row + 2, 0); y < left.rows; ++y) {
+  for (int y = roll_first_row_; y < left.rows; ++y) {
     const float g = ground.offset_per_row[static_cast<std::size_t>(y)];
     if (!std::isfinite(g)) continue;
     const int base = static_cast<int>(std::lround(g));
     const std::uint8_t* l = left.ptr<std::uint8_t>(y);
+    double* band_hist = &roll_hist_[static_cast<std::size_t>(rollBand(y) * strips * bins)];
     std::memcpy(rp, right.ptr<std::uint8_t>(y), static_cast<std::size_t>(w));
     // Offsets base - search .. base + search, negative ones left out, in windows of kLanes.
     for (int b_first = std::max(0, search - base); b_first < bins; b_first += simd::kLanes) {
@@ -434,7 +455,7 @@ void GroundEstimator::estimateRoll(const cv::Mat& left, const cv::Mat& right, co
         if (std::max(x0, d_first) >= x1) continue;
         std::fill(roll_counts_.begin(), roll_counts_.end(), 0);
         simd::accumulateMatchesWindow(l, rp, x0, x1, d_first, count, kRollGreyTolerance, roll_counts_.data());
-        double* h = &roll_hist_[static_cast<std::size_t>(k * bins + b_first)];
+        double* h = band_hist + k * bins + b_first;
         for (int i = 0; i < count; ++i) h[i] += roll_counts_[static_cast<std::size_t>(i)];
       }
     }
@@ -442,24 +463,95 @@ void GroundEstimator::estimateRoll(const cv::Mat& left, const cv::Mat& right, co
   rollFit(w, ground);
 }
 
-void GroundEstimator::rollFit(int w, GroundProfile& ground) {
+namespace {
+constexpr double kBandAgreementPx = 0.5;  // strips of a band within this of its line agree
+constexpr int kMinAgreeingStrips = 4;
+
+// The peak of one strip's match histogram around the line: its sub-pixel position relative to
+// the line (parabola through the peak and its neighbours) and its height above the histogram's
+// median. False when the strip shows no peak inside the searched offsets.
+bool stripPeak(const double* h, int bins, std::vector<double>& sorted, double& delta, double& excess) {
+  const int best = static_cast<int>(std::max_element(h, h + bins) - h);
+  sorted.assign(h, h + bins);
+  std::nth_element(sorted.begin(), sorted.begin() + bins / 2, sorted.end());
+  excess = h[best] - sorted[static_cast<std::size_t>(bins / 2)];
+  if (excess <= 0.0 || best == 0 || best == bins - 1) return false;
+  const double den = h[best - 1] - 2 * h[best] + h[best + 1];
+  const double sub = den < 0 ? 0.5 * (h[best - 1] - h[best + 1]) / den : 0.0;
+  delta = best - bins / 2 + sub;
+  return true;
+}
+}  // namespace
+
+void GroundEstimator::collectStrips(const double* hist, int width, float reference_column, double roll) {
+  const int strips = params_.roll_strips;
+  const int bins = 2 * params_.roll_search_px + 1;
+  band_column_.clear();
+  band_residual_.clear();
+  band_weight_.clear();
+  for (int k = 0; k < strips; ++k) {
+    double delta = 0.0, excess = 0.0;
+    if (!stripPeak(hist + k * bins, bins, roll_sorted_, delta, excess)) continue;
+    const double xc = (k + 0.5) * width / strips - static_cast<double>(reference_column);
+    band_column_.push_back(xc);
+    band_residual_.push_back(delta - roll * xc);
+    band_weight_.push_back(excess);
+  }
+}
+
+bool GroundEstimator::fitBandLine(double max_deviation, double& shift, double& tilt) const {
+  double sw = 0, sx = 0, sr = 0, sxx = 0, sxr = 0;
+  int used = 0;
+  for (std::size_t i = 0; i < band_residual_.size(); ++i) {
+    const double x = band_column_[i];
+    const double r = band_residual_[i];
+    if (std::abs(r - shift - tilt * x) > max_deviation) continue;
+    const double w = band_weight_[i];
+    sw += w;
+    sx += w * x;
+    sr += w * r;
+    sxx += w * x * x;
+    sxr += w * x * r;
+    ++used;
+  }
+  const double det = sw * sxx - sx * sx;
+  if (used < kMinAgreeingStrips || std::abs(det) < 1e-9) return false;
+  tilt = (sw * sxr - sx * sr) / det;
+  shift = (sr - tilt * sx) / sw;
+  return true;
+}
+
+bool GroundEstimator::fitStrips(double& shift, double& tilt) const {
+  // Fitted twice: the second time without the strips farther than 2 px from the first fit
+  // (an obstacle or a raised kerb filling a strip). The strips must then agree: most of the
+  // weight within kBandAgreementPx of the line (on weak texture the peaks are noise).
+  shift = 0.0;
+  tilt = 0.0;
+  if (!fitBandLine(std::numeric_limits<double>::infinity(), shift, tilt) ||
+      !fitBandLine(2.0 * kBandAgreementPx, shift, tilt))
+    return false;
+  double total = 0.0, agreeing = 0.0;
+  int agreeing_strips = 0;
+  for (std::size_t i = 0; i < band_residual_.size(); ++i) {
+    total += band_weight_[i];
+    if (std::abs(band_residual_[i] - shift - tilt * band_column_[i]) <= kBandAgreementPx) {
+      agreeing += band_weight_[i];
+      ++agreeing_strips;
+    }
+  }
+  return agreeing_strips >= kMinAgreeingStrips && agreeing >= 0.5 * total;
+}
+
+void GroundEstimator::rollFitWhole(int w, GroundProfile& ground) {
+  // One line through the strips' peaks over all ground rows, weighted by the peaks' heights.
   const int strips = params_.roll_strips;
   const int search = params_.roll_search_px;
   const int bins = 2 * search + 1;
-  // Peak per strip (with parabolic refinement), weighted by its height above the strip's median.
   double sw = 0, sx = 0, sd = 0, sxx = 0, sxd = 0;
   int used = 0;
-  std::vector<double>& sorted = roll_sorted_;
   for (int k = 0; k < strips; ++k) {
-    const double* h = &roll_hist_[static_cast<std::size_t>(k * bins)];
-    const int best = static_cast<int>(std::max_element(h, h + bins) - h);
-    sorted.assign(h, h + bins);
-    std::nth_element(sorted.begin(), sorted.begin() + bins / 2, sorted.end());
-    const double excess = h[best] - sorted[static_cast<std::size_t>(bins / 2)];
-    if (excess <= 0.0 || best == 0 || best == bins - 1) continue;
-    const double den = h[best - 1] - 2 * h[best] + h[best + 1];
-    const double sub = den < 0 ? 0.5 * (h[best - 1] - h[best + 1]) / den : 0.0;
-    const double delta = best - search + sub;
+    double delta = 0.0, excess = 0.0;
+    if (!stripPeak(&roll_total_[static_cast<std::size_t>(k * bins)], bins, roll_sorted_, delta, excess)) continue;
     const double xc = (k + 0.5) * w / strips - static_cast<double>(ground.reference_column);
     sw += excess;
     sx += excess * xc;
@@ -486,6 +578,99 @@ void GroundEstimator::rollFit(int w, GroundProfile& ground) {
     if (std::isfinite(ground.offset_per_row[y])) ground.offset_per_row[y] += s;
   for (cv::Point2f& v : ground.vertices)
     if (v.y >= static_cast<float>(ground.horizon_row)) v.x += s;
+}
+
+void GroundEstimator::rollFit(int w, GroundProfile& ground) {
+  const int strips = params_.roll_strips;
+  const int search = params_.roll_search_px;
+  const int bins = 2 * search + 1;
+  const std::size_t per_band = static_cast<std::size_t>(strips * bins);
+  roll_total_.assign(per_band, 0.0);
+  for (int b = 0; b < roll_bands_; ++b)
+    for (std::size_t i = 0; i < per_band; ++i) roll_total_[i] += roll_hist_[static_cast<std::size_t>(b) * per_band + i];
+  if (params_.profile_band_rows <= 0) {
+    rollFitWhole(w, ground);
+    return;
+  }
+  // The transversal slope: a line through the strips' peaks over all ground rows. Not where
+  // the ground line itself could not be measured (the prior, a previous frame's line): on
+  // weak ground texture the strips' peaks are mostly the objects'.
+  if (ground.source != GroundSource::kHough) return;
+  collectStrips(roll_total_.data(), w, ground.reference_column, 0.0);
+  double offset = 0.0, slope = 0.0;
+  if (!fitStrips(offset, slope)) return;
+  if (std::abs(slope) * w >= params_.min_roll_px)
+    ground.offset_per_column = static_cast<float>(slope);
+  else
+    slope = 0.0;
+  // Band by band: where the ground lies beside the line at the reference column. The line is
+  // a compromise wherever the ground bends (a slope change the second segment did not catch,
+  // the smeared row peaks of a transversal slope); each band's strips, the roll taken out,
+  // measure the shift there, with the band's own tilt (where the ground bends, its
+  // transversal slope changes too).
+  const int rows = static_cast<int>(ground.offset_per_row.size());
+  band_shift_.clear();
+  band_tilt_.clear();
+  // Band 0, next to the horizon, is not used: its rows are a few offsets apart, its texture is
+  // fine, and the far objects standing there pull its strips nearer (on the generated scenes
+  // band 1's shift carried up was nearer the truth there than band 0's own).
+  for (int b = 1; b < roll_bands_; ++b) {
+    collectStrips(&roll_hist_[static_cast<std::size_t>(b) * per_band], w, ground.reference_column, slope);
+    double shift = 0.0, tilt = 0.0;
+    if (!fitStrips(shift, tilt)) continue;
+    const int first = roll_first_row_ + b * params_.profile_band_rows;
+    const int last = b == roll_bands_ - 1 ? rows - 1 : first + params_.profile_band_rows - 1;
+    band_shift_.emplace_back(static_cast<float>(shift), 0.5f * static_cast<float>(first + last));
+    band_tilt_.push_back(static_cast<float>(slope + tilt));
+  }
+  if (band_shift_.empty()) return;
+  // Between band centres the shifts and slopes are interpolated, beyond the outer ones kept.
+  auto interpolate = [&](float y, auto value) {
+    if (y <= band_shift_.front().y) return value(0);
+    for (std::size_t i = 1; i < band_shift_.size(); ++i) {
+      const float ya = band_shift_[i - 1].y;
+      const float yb = band_shift_[i].y;
+      if (y <= yb) return value(i - 1) + (value(i) - value(i - 1)) * (y - ya) / (yb - ya);
+    }
+    return value(band_shift_.size() - 1);
+  };
+  auto shiftOf = [&](std::size_t i) { return band_shift_[i].x; };
+  auto tiltOf = [&](std::size_t i) { return band_tilt_[i]; };
+  const int horizon = std::max(ground.horizon_row, 0);
+  for (int y = horizon; y < rows; ++y) {
+    float& d = ground.offset_per_row[static_cast<std::size_t>(y)];
+    if (std::isfinite(d)) d += interpolate(static_cast<float>(y), shiftOf);
+  }
+  // The transversal slope per row, where any band's differs measurably from none.
+  const bool tilted = std::any_of(band_tilt_.begin(), band_tilt_.end(), [&](float t) {
+    return std::abs(static_cast<double>(t)) * w >= params_.min_roll_px;
+  });
+  if (tilted) {
+    ground.offset_per_column_by_row.assign(static_cast<std::size_t>(rows), ground.offset_per_column);
+    for (int y = horizon; y < rows; ++y)
+      ground.offset_per_column_by_row[static_cast<std::size_t>(y)] = interpolate(static_cast<float>(y), tiltOf);
+  }
+  // The horizon follows the corrected line: rows now nearer than the background belong to it.
+  int new_horizon = horizon;
+  if (std::isfinite(ground.background_offset))
+    while (new_horizon < rows && ground.offset_per_row[static_cast<std::size_t>(new_horizon)] < ground.background_offset)
+      ground.offset_per_row[static_cast<std::size_t>(new_horizon++)] = ground.background_offset;
+  ground.horizon_row = new_horizon;
+  // The polyline: the background, then the ground at its old vertices and at the band centres.
+  band_order_.clear();
+  for (const cv::Point2f& v : ground.vertices) band_order_.push_back(static_cast<int>(std::lround(v.y)));
+  for (const cv::Point2f& p : band_shift_) band_order_.push_back(static_cast<int>(std::lround(p.y)));
+  band_order_.push_back(rows - 1);
+  std::sort(band_order_.begin(), band_order_.end());
+  band_order_.erase(std::unique(band_order_.begin(), band_order_.end()), band_order_.end());
+  ground.vertices.clear();
+  if (std::isfinite(ground.background_offset)) {
+    ground.vertices.emplace_back(ground.background_offset, 0.0f);
+    ground.vertices.emplace_back(ground.background_offset, static_cast<float>(new_horizon));
+  }
+  for (const int y : band_order_)
+    if (y > new_horizon && y < rows)
+      ground.vertices.emplace_back(ground.offset_per_row[static_cast<std::size_t>(y)], static_cast<float>(y));
 }
 
 void GroundEstimator::compute(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous,

@@ -44,6 +44,7 @@ struct GroundParams {
   int roll_strips = 8;                // column strips measured
   int roll_search_px = 12;            // offsets searched on either side of the line
   double min_roll_px = 1.0;           // a change across the image below this is ignored (level ground)
+  int profile_band_rows = 24;         // rows per band of the along-the-line correction (0 = one shift)
   bool prefer_previous = true;        // previous frame's line before the mounting prior
   int max_previous_age_frames = 10;   // a previous line older than this is not used
 
@@ -64,6 +65,8 @@ struct GroundParams {
     v.field("roll_strips", roll_strips, 0, 64, "", "column strips for the transversal slope (0 = off)");
     v.field("roll_search_px", roll_search_px, 1, 64, "pixels", "offsets searched around the line per strip");
     v.field("min_roll_px", min_roll_px, 0.0, 100.0, "pixels", "smallest offset change across the image that counts");
+    v.field("profile_band_rows", profile_band_rows, 0, 100000, "rows",
+            "row band of the ground line's measured correction (0 = one shift for the whole line)");
     v.field("prefer_previous", prefer_previous, 0, 1, "", "use the previous frame's line before the prior");
     v.field("max_previous_age_frames", max_previous_age_frames, 0, 100000, "frames", "oldest usable previous line");
   }
@@ -122,8 +125,20 @@ class GroundEstimator {
   std::optional<GroundLine> hough(const std::vector<std::uint8_t>& use, int rows, int offsets) const;
   std::optional<GroundLine> houghFast(const std::vector<std::uint8_t>& use, int rows, int offsets);
   // Roll: rows, strips and offsets to histogram; false when the roll is not estimated.
-  bool rollSetUp(const cv::Mat& left, const StereoRig& rig, GroundProfile& ground) const;
+  bool rollSetUp(const cv::Mat& left, const StereoRig& rig, GroundProfile& ground);
+  int rollBand(int y) const;  // band of ground row y in roll_hist_
+  // The transversal slope and the line's correction from roll_hist_.
   void rollFit(int width, GroundProfile& ground);
+  // profile_band_rows 0: one weighted line through all strips, and one shift for the line.
+  void rollFitWhole(int width, GroundProfile& ground);
+  // Each strip's peak in `hist` (one band): centre column relative to reference_column, shift
+  // beyond `roll` per column, weight; into band_column_, band_residual_, band_weight_.
+  void collectStrips(const double* hist, int width, float reference_column, double roll);
+  // Weighted line shift + tilt * column through the collected strips, leaving out those
+  // farther than max_deviation from the current line; false with fewer than four strips.
+  bool fitBandLine(double max_deviation, double& shift, double& tilt) const;
+  // The strips' line fitted twice (outliers out), true when the strips agree with it.
+  bool fitStrips(double& shift, double& tilt) const;
   // Row y has a peak within support_tolerance_px of offset d.
   bool peakNear(int y, double d) const;
   int support(const GroundLine& line, int row_begin, int row_end, int offsets, int* crossed) const;
@@ -141,7 +156,16 @@ class GroundEstimator {
   std::vector<int> row_peak_begin_;  // peaks_ index of each row's first peak, rows + 1 entries
   mutable std::vector<float> accumulator_;
   std::vector<std::uint8_t> use_;
-  std::vector<double> roll_hist_;
+  std::vector<double> roll_hist_;        // per row band, strip and offset around the line
+  int roll_first_row_ = 0;               // first row of band 0
+  int roll_bands_ = 1;
+  std::vector<double> roll_total_;       // roll_hist_ summed over the bands
+  std::vector<double> band_column_;      // per strip of a band: centre column, shift beyond the roll, weight
+  std::vector<double> band_residual_;
+  std::vector<double> band_weight_;
+  std::vector<int> band_order_;
+  std::vector<cv::Point2f> band_shift_;  // (shift, centre row) of the measured bands
+  std::vector<float> band_tilt_;         // their transversal slopes
   // Scratch of the fast paths, sized on the first frame and reused.
   std::vector<Peak> row_peaks_;
   std::vector<int> bin_shift_;          // Hough bin - row - rows per slope and offset (slope-major)

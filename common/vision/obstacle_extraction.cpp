@@ -914,6 +914,32 @@ void ObstacleExtractor::foldInto(std::size_t& i, const cv::Rect& reach, int d_lo
   obstacles.assign(kept.begin(), kept.end());
 }
 
+int ObstacleExtractor::dropRemnants(cv::Mat& labels, std::vector<ObstacleCluster>& obstacles) {
+  const int least = std::min(params_.min_cluster_features, params_.weak_cluster_features);
+  std::array<std::uint8_t, 256> relabel{};
+  for (int v = 0; v < 256; ++v) relabel[static_cast<std::size_t>(v)] = static_cast<std::uint8_t>(v);
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < obstacles.size(); ++i) {
+    ObstacleCluster& o = obstacles[i];
+    const auto old_label = static_cast<std::size_t>(o.label);
+    if (o.feature_count < least) {
+      relabel[old_label] = kLabelUnassigned;
+      continue;
+    }
+    o.label = kLabelFirstObstacle + static_cast<int>(kept);
+    relabel[old_label] = static_cast<std::uint8_t>(o.label);
+    obstacles[kept++] = o;
+  }
+  const int dropped = static_cast<int>(obstacles.size() - kept);
+  if (dropped == 0) return 0;
+  obstacles.resize(kept);
+  for (int y = 0; y < labels.rows; ++y) {
+    std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+    for (int c = 0; c < labels.cols; ++c) lab[c] = relabel[lab[c]];
+  }
+  return dropped;
+}
+
 int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
                                       std::vector<ObstacleCluster>& obstacles) const {
   if (!params_.trim_plain_sides) return 0;

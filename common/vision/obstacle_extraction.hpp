@@ -188,6 +188,12 @@ class ObstacleExtractor {
   int joinPlainFaces(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
                      std::vector<ObstacleCluster>& obstacles, double baseline_m);
 
+  // Drops the obstacles that the trims above left with fewer matched pixels than the loop
+  // accepts for any cluster (the smaller of min_cluster_features and weak_cluster_features):
+  // their pixels return to unassigned and the later obstacles are renumbered.
+  // Returns the number dropped.
+  int dropRemnants(cv::Mat& labels, std::vector<ObstacleCluster>& obstacles);
+
   const ObstacleParams& params() const { return params_; }
 
  private:

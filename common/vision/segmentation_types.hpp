@@ -29,6 +29,15 @@ struct GroundProfile {
   // offset_per_row[y] + offset_per_column * (x - reference_column). 0 for level ground.
   float offset_per_column = 0.0f;
   float reference_column = 0.0f;
+  // Where the ground bends, its transversal slope changes with the row: when not empty, the
+  // slope of each row (offset pixels per column) in place of offset_per_column for that row.
+  // The removal of ground features uses it; the obstacle stage's row limits use
+  // offset_per_column, the slope fitted over all ground rows.
+  std::vector<float> offset_per_column_by_row;
+  float offsetPerColumnAt(int y) const {
+    return offset_per_column_by_row.empty() ? offset_per_column
+                                            : offset_per_column_by_row[static_cast<std::size_t>(y)];
+  }
   int horizon_row = -1;                // rows above it belong to the background line
   float background_offset = kUnknown;  // offset of the vertical background line (pixels)
   std::vector<cv::Point2f> vertices;   // polyline vertices (x = offset, y = row), top to bottom

@@ -41,6 +41,7 @@ int main(int argc, char** argv) {
     if (const char* v = std::getenv("CELL")) sgp.obstacles.cell_px = std::atoi(v);
     if (const char* v = std::getenv("REACH")) sgp.obstacles.cell_reach = std::atoi(v);
     if (const char* v = std::getenv("CELLMIN")) sgp.obstacles.min_cell_matches = std::atoi(v);
+    if (const char* v = std::getenv("GBAND")) sgp.ground.profile_band_rows = std::atoi(v);
     if (const char* v = std::getenv("GAP")) sgp.obstacles.gap_px = std::atoi(v);
     if (const char* v = std::getenv("EXTENT")) sgp.obstacles.extent_fraction = std::atof(v);
     if (const char* v = std::getenv("PLAIN")) sgp.obstacles.join_plain_faces = std::atoi(v) != 0;
@@ -55,6 +56,30 @@ int main(int argc, char** argv) {
       ++rows;
       ok += std::abs(r.ground.offset_per_row[y] - t.ground_offset_per_row[y]) <= 1.0f;
     }
+    // The ground model over every visible ground pixel: within 1 of the true disparity.
+    long ground_px = 0, ground_ok = 0;
+    for (int y = std::max(r.ground.horizon_row, 0); y < pair.left.rows; ++y)
+      for (int x = 0; x < pair.left.cols; ++x) {
+        if (t.object_id.at<std::uint16_t>(y, x) != 0) continue;
+        const float model = r.ground.offset_per_row[static_cast<std::size_t>(y)] +
+                            r.ground.offsetPerColumnAt(y) * (static_cast<float>(x) - r.ground.reference_column);
+        ++ground_px;
+        ground_ok += std::abs(model - t.disparity.at<float>(y, x)) <= 1.0f;
+      }
+    std::printf("ground pixels %ld / %ld\n", ground_ok, ground_px);
+    if (std::getenv("DUMP_GROUND_AT")) {
+      const int xs[] = {50, 300, 621, 900, 1200};
+      for (int y = std::max(r.ground.horizon_row, 0); y < pair.left.rows; y += 5) {
+        std::printf("   y %3d", y);
+        for (const int x : xs) {
+          const float model = r.ground.offset_per_row[static_cast<std::size_t>(y)] +
+                              r.ground.offsetPerColumnAt(y) * (static_cast<float>(x) - r.ground.reference_column);
+          const bool g = t.object_id.at<std::uint16_t>(y, x) == 0;
+          std::printf(" | x%4d %6.2f %6.2f%s", x, static_cast<double>(model), static_cast<double>(t.disparity.at<float>(y, x)), g ? " " : "*");
+        }
+        std::printf("\n");
+      }
+    }
     std::printf("seed %d terrain %d slope %.3f weak %d shadows %d trans %.3f: ground %s %d/%d bg %.1f/%.1f  render %.0f ms seg %.0f ms\n", seed,
                 static_cast<int>(sp.terrain), sp.slope, sp.weak_ground_texture, sp.shadows, sp.transversal_slope,
                 toString(r.ground.source), ok, rows, static_cast<double>(r.ground.background_offset),
@@ -63,7 +88,8 @@ int main(int argc, char** argv) {
     if (std::getenv("DUMP_GROUND")) {
       std::printf("   ground horizon %d per_column %.4f vertices %zu\n", r.ground.horizon_row,
                   static_cast<double>(r.ground.offset_per_column), r.ground.vertices.size());
-      for (std::size_t y = 0; y < t.ground_offset_per_row.size(); y += 10)
+      const std::size_t step = std::string(std::getenv("DUMP_GROUND")) == "all" ? 1 : 10;
+      for (std::size_t y = 0; y < t.ground_offset_per_row.size(); y += step)
         std::printf("   row %3zu truth %6.2f found %6.2f\n", y, static_cast<double>(t.ground_offset_per_row[y]),
                     static_cast<double>(r.ground.offset_per_row[y]));
     }

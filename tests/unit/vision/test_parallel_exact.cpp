@@ -77,6 +77,7 @@ TEST_P(ParallelExact, EveryStageMatchesItsReference) {
     ground.estimateRollReference(lf, rf, p.rig, profile_ref);
     ground.estimateRoll(lf, rf, p.rig, profile);
     ASSERT_EQ(profile.offset_per_column, profile_ref.offset_per_column) << "transversal slope";
+    ASSERT_EQ(profile.offset_per_column_by_row, profile_ref.offset_per_column_by_row) << "transversal slope per row";
     ASSERT_EQ(profile.reference_column, profile_ref.reference_column);
     FeatureRemover remover;
     cv::Mat rem_ref, lab_ref, rem, lab;
@@ -200,6 +201,7 @@ TEST(FastGround, WideRollSearchMatchesTheReference) {
     ground.estimateRoll(lf, rf, p.rig, b);
     ASSERT_EQ(a.horizon_row, b.horizon_row);
     ASSERT_EQ(a.offset_per_column, b.offset_per_column);
+    ASSERT_EQ(a.offset_per_column_by_row, b.offset_per_column_by_row);
   }
 }
 

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 
 #include <gtest/gtest.h>
@@ -134,6 +135,33 @@ PoleFeatures poleFeatures(int surround, int halo) {
   p.cluster.box = cv::Rect(x0, 5, x1 - x0 + 1, 30);
   p.cluster.feature_count = 30 * (x1 - x0 + 1);
   return p;
+}
+
+// An obstacle that the trims leave with fewer matched pixels than any cluster the loop accepts
+// is dropped: its pixels return to unassigned, and the obstacles after it are renumbered.
+TEST(ObstacleSides, RemnantsOfTrimmedObstaclesAreDropped) {
+  ObstacleExtractor extractor;
+  const int least = std::min(extractor.params().min_cluster_features, extractor.params().weak_cluster_features);
+  cv::Mat labels(40, 60, CV_8UC1, cv::Scalar(kLabelUnassigned));
+  std::vector<ObstacleCluster> obstacles(3);
+  const cv::Rect boxes[3] = {cv::Rect(0, 0, 10, 40), cv::Rect(20, 0, 1, 5), cv::Rect(30, 0, 10, 40)};
+  for (int i = 0; i < 3; ++i) {
+    obstacles[static_cast<std::size_t>(i)].label = kLabelFirstObstacle + i;
+    obstacles[static_cast<std::size_t>(i)].box = boxes[i];
+    obstacles[static_cast<std::size_t>(i)].feature_count = boxes[i].area();
+    labels(boxes[i]).setTo(kLabelFirstObstacle + i);
+  }
+  ASSERT_LT(boxes[1].area(), least);
+  ASSERT_GE(boxes[0].area(), least);
+  EXPECT_EQ(extractor.dropRemnants(labels, obstacles), 1);
+  ASSERT_EQ(obstacles.size(), 2u);
+  EXPECT_EQ(obstacles[0].box, boxes[0]);
+  EXPECT_EQ(obstacles[1].box, boxes[2]);
+  EXPECT_EQ(obstacles[1].label, kLabelFirstObstacle + 1);
+  EXPECT_EQ(labels.at<std::uint8_t>(2, 20), kLabelUnassigned);
+  EXPECT_EQ(labels.at<std::uint8_t>(2, 35), kLabelFirstObstacle + 1);
+  EXPECT_EQ(labels.at<std::uint8_t>(2, 5), kLabelFirstObstacle);
+  EXPECT_EQ(extractor.dropRemnants(labels, obstacles), 0);
 }
 
 TEST(ObstacleSides, PlainSurroundOfAThinPoleIsTrimmed) {

@@ -1,6 +1,7 @@
 // Acceptance of the Section III segmentation on rendered synthetic scenes with
 // ground truth (io/synthetic_scene.hpp): ground line per terrain profile, the
 // weak-texture fallback, and obstacle recall / spurious obstacles over many seeds.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -66,6 +67,71 @@ TEST(SyntheticGround, WeakTextureFallsBackToThePrior) {
   EXPECT_EQ(r.ground.source, GroundSource::kPrior);
   // The rig's mounting is the truth on flat ground: the prior must then be right too.
   EXPECT_GE(groundRowsWithin1(r.ground, *pair.truth, 128), 0.9);
+}
+
+// Share of the visible ground pixels (object id 0, below the found horizon) whose disparity
+// the found ground model (line per row plus transversal slope) gives within +-1.
+double groundPixelsWithin1(const GroundProfile& g, const SceneTruth& t) {
+  long n = 0, ok = 0;
+  for (int y = std::max(g.horizon_row, 0); y < t.object_id.rows; ++y)
+    for (int x = 0; x < t.object_id.cols; ++x) {
+      if (t.object_id.at<std::uint16_t>(y, x) != 0) continue;
+      const float model =
+          g.offset_per_row[static_cast<std::size_t>(y)] + g.offsetPerColumnAt(y) * (static_cast<float>(x) - g.reference_column);
+      ++n;
+      ok += std::abs(model - t.disparity.at<float>(y, x)) <= 1.0f;
+    }
+  return n ? static_cast<double>(ok) / static_cast<double>(n) : 0.0;
+}
+
+// A slope change with a transversal slope: a straight line per row (the Hough line, moved
+// as a whole) is a compromise; the line corrected band by band follows the ground at every
+// column. With one shift for the whole line (profile_band_rows 0) the same scenes fall short.
+TEST(SyntheticGround, SlopeChangeWithTransversalSlopeIsFollowedEverywhere) {
+  for (const double transversal : {-0.04, 0.04}) {
+    SyntheticSceneParams p = terrainScene(TerrainProfile::kSlopeChange, 0.10);
+    p.transversal_slope = transversal;
+    const StereoPair pair = renderSyntheticScene(p, 16);
+    const SegmentationResult banded = segment(pair);
+    SegmenterParams whole;
+    whole.ground.profile_band_rows = 0;
+    const SegmentationResult single = segment(pair, whole);
+    ASSERT_EQ(banded.ground.source, GroundSource::kHough);
+    const double banded_share = groundPixelsWithin1(banded.ground, *pair.truth);
+    const double single_share = groundPixelsWithin1(single.ground, *pair.truth);
+    std::printf("transversal slope %.2f: ground pixels within 1: banded %.3f, one shift %.3f\n", transversal,
+                banded_share, single_share);
+    EXPECT_GE(banded_share, 0.9) << "transversal slope " << transversal;
+    EXPECT_GT(banded_share, single_share + 0.05) << "transversal slope " << transversal;
+  }
+}
+
+// On a transversal slope the horizon tilts: on its low side the background hills show below
+// the horizon row, where the ground would lie beyond them. Their features are removed as
+// background there, instead of remaining as clusters at the background's offset.
+TEST(SyntheticGround, BackgroundBelowATiltedHorizonIsRemoved) {
+  SyntheticSceneParams p = terrainScene(TerrainProfile::kFlat, 0.0);
+  p.transversal_slope = 0.05;
+  const StereoPair pair = renderSyntheticScene(p, 17);
+  const SceneTruth& t = *pair.truth;
+  auto backgroundLeftBelowTheHorizon = [&](const SegmenterParams& params) {
+    const SegmentationResult r = segment(pair, params);
+    int left = 0, features = 0;
+    for (int y = std::max(r.ground.horizon_row, 0); y < r.labels.rows; ++y)
+      for (int x = 0; x < r.labels.cols; ++x) {
+        if (t.object_id.at<std::uint16_t>(y, x) != 1 || r.labels.at<std::uint8_t>(y, x) == kLabelNone) continue;
+        ++features;
+        left += r.labels.at<std::uint8_t>(y, x) != kLabelBackground && r.labels.at<std::uint8_t>(y, x) != kLabelGround;
+      }
+    std::printf("background features below the horizon row: %d, not removed %d\n", features, left);
+    return features ? static_cast<double>(left) / features : 0.0;
+  };
+  SegmenterParams off;
+  off.removal.background_beside_ground = false;
+  const double with = backgroundLeftBelowTheHorizon({});
+  const double without = backgroundLeftBelowTheHorizon(off);
+  EXPECT_LE(with, 0.05);
+  EXPECT_GE(without, 0.15);
 }
 
 // People 25-35 m away show ~30-45 rows of a narrow outline: often fewer matched
