@@ -334,6 +334,9 @@ void SegmentationEncoder::fill(const SegmentationData& data, sg_idl_Segmentation
   }
   borrow(out.ground.vertex_offset, vertex_offset_.data(), vertex_offset_.size());
   borrow(out.ground.vertex_row, vertex_row_.data(), vertex_row_.size());
+  out.ground.offset_per_column = g.offset_per_column;
+  out.ground.reference_column = g.reference_column;
+  borrow(out.ground.offset_per_column_by_row, g.offset_per_column_by_row.data(), g.offset_per_column_by_row.size());
   out.ground.source = static_cast<sg_idl_GroundSource>(static_cast<int>(g.source));
 
   obstacles_.clear();
@@ -434,6 +437,28 @@ void readSegmentation(const sg_idl_Segmentation& in, SegmentationData& out) {
       fail(what, "ground.vertices[" + str(i) + "]", "= (" + str(x) + ", " + str(y) + ") is not finite");
     }
     ground.vertices.emplace_back(x, y);
+  }
+  // Transversal slope: at most one offset per column, a reference column inside the image.
+  auto slopeOk = [](float c) { return std::isfinite(c) && std::abs(c) <= 1.0f; };
+  if (!slopeOk(g.offset_per_column)) {
+    fail(what, "ground.offset_per_column", "= " + str(g.offset_per_column) + " is not a slope within +-1");
+  }
+  ground.offset_per_column = g.offset_per_column;
+  if (!std::isfinite(g.reference_column) || g.reference_column < 0.0f || g.reference_column > static_cast<float>(width)) {
+    fail(what, "ground.reference_column", "= " + str(g.reference_column) + " is not within 0.." + str(width));
+  }
+  ground.reference_column = g.reference_column;
+  if (g.offset_per_column_by_row._length != 0 && g.offset_per_column_by_row._length != in.height) {
+    fail(what, "ground.offset_per_column_by_row",
+         "has " + str(g.offset_per_column_by_row._length) + " values but height = " + str(in.height));
+  }
+  ground.offset_per_column_by_row.assign(g.offset_per_column_by_row._buffer,
+                                         g.offset_per_column_by_row._buffer + g.offset_per_column_by_row._length);
+  for (std::size_t row = 0; row < ground.offset_per_column_by_row.size(); ++row) {
+    if (!slopeOk(ground.offset_per_column_by_row[row])) {
+      fail(what, "ground.offset_per_column_by_row[" + str(row) + "]",
+           "= " + str(ground.offset_per_column_by_row[row]) + " is not a slope within +-1");
+    }
   }
   if (static_cast<int>(g.source) < 0 || static_cast<int>(g.source) > static_cast<int>(GroundSource::kNone)) {
     fail(what, "ground.source", "= " + str(static_cast<int>(g.source)) + " is not a known source");

@@ -141,17 +141,27 @@ void suppressDuplicatesInPlace(std::vector<HumanDetection>& detections, double i
   detections.resize(kept);
 }
 
-double groundRowForOffset(const GroundProfile& ground, const StereoRig& rig, double offset_px, double near_row) {
+double groundRowForOffset(const GroundProfile& ground, const StereoRig& rig, double offset_px, double near_row,
+                          double column) {
   const auto& g = ground.offset_per_row;
   const int first = std::max(0, ground.horizon_row);
+  // The ground offset of row r at `column`: on a transversal slope the line's offset at the
+  // reference column plus the row's slope times the distance from it.
+  const double from_reference = std::isfinite(column) && std::isfinite(ground.reference_column)
+                                    ? column - static_cast<double>(ground.reference_column)
+                                    : 0.0;
+  auto at = [&](int r) {
+    const double slope = static_cast<double>(ground.offsetPerColumnAt(r));
+    return static_cast<double>(g[static_cast<std::size_t>(r)]) + (std::isfinite(slope) ? slope * from_reference : 0.0);
+  };
   double best = kNaN;
   double best_dist = std::numeric_limits<double>::infinity();
   int last_finite = -1;
   for (int r = first; r < static_cast<int>(g.size()); ++r) {
     if (std::isfinite(g[static_cast<std::size_t>(r)])) last_finite = r;
     if (r + 1 >= static_cast<int>(g.size())) break;
-    const double a = static_cast<double>(g[static_cast<std::size_t>(r)]);
-    const double b = static_cast<double>(g[static_cast<std::size_t>(r) + 1]);
+    const double a = at(r);
+    const double b = at(r + 1);
     if (!std::isfinite(a) || !std::isfinite(b)) continue;
     if ((a - offset_px) * (b - offset_px) > 0.0) continue;
     const double row = a == b ? r : r + (offset_px - a) / (b - a);
@@ -164,11 +174,11 @@ double groundRowForOffset(const GroundProfile& ground, const StereoRig& rig, dou
   if (std::isfinite(best)) return best;
   if (last_finite >= 0) {
     // No crossing: the feet are below the lowest ground row; extrapolate its slope.
-    const double lo = static_cast<double>(g[static_cast<std::size_t>(last_finite)]);
+    const double lo = at(last_finite);
     if (offset_px > lo) {
       int ref = last_finite;
       while (ref > first && last_finite - ref < 10 && std::isfinite(g[static_cast<std::size_t>(ref) - 1])) --ref;
-      const double slope = ref < last_finite ? (lo - static_cast<double>(g[static_cast<std::size_t>(ref)])) / (last_finite - ref) : 0.0;
+      const double slope = ref < last_finite ? (lo - at(ref)) / (last_finite - ref) : 0.0;
       if (slope > 1e-6) return last_finite + (offset_px - lo) / slope;
     }
     return kNaN;
@@ -599,7 +609,8 @@ bool HumanLocalizer::validateCandidate(BoxWorkspace& ws, const cv::Mat& left, co
   const double box_top = static_cast<double>(h.box.y);
   const double box_height = static_cast<double>(h.box.height);
   const double box_bottom = box_top + box_height;
-  const double contact = groundRowForOffset(segmentation.ground, rig, static_cast<double>(offset), box_bottom);
+  const double contact = groundRowForOffset(segmentation.ground, rig, static_cast<double>(offset), box_bottom,
+                                            static_cast<double>(h.box.x) + 0.5 * static_cast<double>(h.box.width));
   if (std::isfinite(contact) && contact > box_top + 0.5 * box_height && contact < box_bottom + 0.5 * box_height) {
     const double bottom = std::min(contact, static_cast<double>(left.rows));
     h.box.height = static_cast<float>(bottom - box_top);

@@ -19,6 +19,7 @@
 // Not re-entrant: one localizer per thread; it keeps its scratch across frames
 // (compute() runs its own parallel bands).
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -174,10 +175,12 @@ struct LocalizerParams {
   void validate() const;
 };
 
-// Row (fractional) where the ground offset equals `offset_px`, the crossing
-// nearest `near_row`; from the mounting prior when the profile has no ground;
-// NaN when neither gives one inside the image.
-double groundRowForOffset(const GroundProfile& ground, const StereoRig& rig, double offset_px, double near_row);
+// Row (fractional) where the ground offset at `column` equals `offset_px` (on a transversal
+// slope the ground's offset changes along the row; NaN: at the reference column), the crossing
+// nearest `near_row`; from the mounting prior when the profile has no ground; NaN when neither
+// gives one inside the image.
+double groundRowForOffset(const GroundProfile& ground, const StereoRig& rig, double offset_px, double near_row,
+                          double column = std::numeric_limits<double>::quiet_NaN());
 
 // Intersection over union of two boxes; 0 when either is empty.
 double boxIoU(const cv::Rect2f& a, const cv::Rect2f& b);

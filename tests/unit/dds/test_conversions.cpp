@@ -152,6 +152,11 @@ SegmentationData segmentation(int width, int height) {
   g.background_offset = 0.5f;
   g.vertices = {{0.5f, 0.0f}, {0.0f, static_cast<float>(height / 2)}, {10.0f, static_cast<float>(height - 1)}};
   g.source = GroundSource::kPrior;
+  g.offset_per_column = -0.0125f;
+  g.reference_column = 48.5f;
+  g.offset_per_column_by_row.assign(static_cast<std::size_t>(height), g.offset_per_column);
+  for (int y = height / 2; y < height; ++y)
+    g.offset_per_column_by_row[static_cast<std::size_t>(y)] = -0.01f - 0.0001f * static_cast<float>(y);
   ObstacleCluster o;
   o.label = kLabelFirstObstacle;
   o.offset_px = 12;
@@ -187,6 +192,9 @@ TEST(SegmentationConversion, RoundTripIsExact) {
   EXPECT_EQ(out.result.ground.source, GroundSource::kPrior);
   ASSERT_EQ(out.result.ground.vertices.size(), 3u);
   EXPECT_EQ(out.result.ground.vertices[2], in.result.ground.vertices[2]);
+  EXPECT_EQ(out.result.ground.offset_per_column, in.result.ground.offset_per_column);
+  EXPECT_EQ(out.result.ground.reference_column, in.result.ground.reference_column);
+  EXPECT_EQ(out.result.ground.offset_per_column_by_row, in.result.ground.offset_per_column_by_row);
   ASSERT_EQ(out.result.obstacles.size(), 1u);
   EXPECT_EQ(out.result.obstacles[0].box, in.result.obstacles[0].box);
   EXPECT_EQ(out.result.obstacles[0].offset_px, 12);
@@ -227,6 +235,27 @@ TEST(SegmentationConversion, MalformedSamplesAreRejected) {
   m = msg;
   m.ground.offset_per_row._buffer = offsets.data();
   EXPECT_THROW(readSegmentation(m, out), InputError);
+
+  // The transversal slope: finite and at most one offset per column, a reference column inside
+  // the image, one slope per row when the per-row sequence is sent at all.
+  m = msg;
+  m.ground.offset_per_column = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(readSegmentation(m, out), InputError);
+  m = msg;
+  m.ground.reference_column = -3.0f;
+  EXPECT_THROW(readSegmentation(m, out), InputError);
+  m = msg;
+  m.ground.offset_per_column_by_row._length = 60;
+  EXPECT_THROW(readSegmentation(m, out), InputError);
+  std::vector<float> slopes(in.result.ground.offset_per_column_by_row);
+  slopes[45] = 2.0f;
+  m = msg;
+  m.ground.offset_per_column_by_row._buffer = slopes.data();
+  EXPECT_THROW(readSegmentation(m, out), InputError);
+  m = msg;
+  m.ground.offset_per_column_by_row._length = 0;  // none: offset_per_column for every row
+  readSegmentation(m, out);
+  EXPECT_TRUE(out.result.ground.offset_per_column_by_row.empty());
 }
 
 // A box of zero width or height (or, for an obstacle box in whole pixels, less

@@ -69,6 +69,27 @@ TEST(GroundLine, RowForOffsetFollowsTheProfile) {
   }
 }
 
+// On a transversal slope the ground offset changes along the row: at a column right of the
+// reference column a rising slope (offset grows to the right) puts the feet of a person at
+// offset d higher in the image, by (slope x distance) / (offset per row) rows. A per-row slope
+// takes the place of the single one.
+TEST(GroundLine, RowForOffsetAtAColumnFollowsTheTransversalSlope) {
+  const auto scene = test::renderFigureScene({});
+  GroundProfile g = scene.segmentation.ground;
+  g.reference_column = 100.0f;
+  g.offset_per_column = 0.02f;
+  const double per_row = 0.5 / 1.65;
+  for (double d : {12.5, 30.0}) {
+    const double at_reference = groundRowForOffset(g, scene.rig, d, 150.0, 100.0);
+    EXPECT_NEAR(at_reference, groundRowForOffset(g, scene.rig, d, 150.0), 1e-9);
+    EXPECT_NEAR(groundRowForOffset(g, scene.rig, d, 150.0, 200.0), at_reference - 0.02 * 100.0 / per_row, 0.05) << d;
+    EXPECT_NEAR(groundRowForOffset(g, scene.rig, d, 150.0, 50.0), at_reference + 0.02 * 50.0 / per_row, 0.05) << d;
+  }
+  g.offset_per_column_by_row.assign(g.offset_per_row.size(), -0.01f);
+  EXPECT_NEAR(groundRowForOffset(g, scene.rig, 30.0, 150.0, 200.0),
+              groundRowForOffset(g, scene.rig, 30.0, 150.0, 100.0) + 0.01 * 100.0 / per_row, 0.05);
+}
+
 TEST(GroundLine, UnknownProfileFallsBackToMountingPrior) {
   const auto scene = test::renderFigureScene({});
   GroundProfile unknown;
