@@ -499,7 +499,7 @@ void GroundEstimator::collectStrips(const double* hist, int width, float referen
   }
 }
 
-bool GroundEstimator::fitBandLine(double max_deviation, double& shift, double& tilt) const {
+bool GroundEstimator::fitBandLine(double max_deviation, double& shift, double& tilt, int min_strips) const {
   double sw = 0, sx = 0, sr = 0, sxx = 0, sxr = 0;
   int used = 0;
   for (std::size_t i = 0; i < band_residual_.size(); ++i) {
@@ -515,7 +515,7 @@ bool GroundEstimator::fitBandLine(double max_deviation, double& shift, double& t
     ++used;
   }
   const double det = sw * sxx - sx * sx;
-  if (used < kMinAgreeingStrips || std::abs(det) < 1e-9) return false;
+  if (used < min_strips || std::abs(det) < 1e-9) return false;
   tilt = (sw * sxr - sx * sr) / det;
   shift = (sr - tilt * sx) / sw;
   return true;
@@ -527,8 +527,8 @@ bool GroundEstimator::fitStrips(double& shift, double& tilt) const {
   // weight within kBandAgreementPx of the line (on weak texture the peaks are noise).
   shift = 0.0;
   tilt = 0.0;
-  if (!fitBandLine(std::numeric_limits<double>::infinity(), shift, tilt) ||
-      !fitBandLine(2.0 * kBandAgreementPx, shift, tilt))
+  if (!fitBandLine(std::numeric_limits<double>::infinity(), shift, tilt, kMinAgreeingStrips) ||
+      !fitBandLine(2.0 * kBandAgreementPx, shift, tilt, kMinAgreeingStrips))
     return false;
   double total = 0.0, agreeing = 0.0;
   int agreeing_strips = 0;
@@ -544,34 +544,17 @@ bool GroundEstimator::fitStrips(double& shift, double& tilt) const {
 
 void GroundEstimator::rollFitWhole(int w, GroundProfile& ground) {
   // One line through the strips' peaks over all ground rows, weighted by the peaks' heights.
-  const int strips = params_.roll_strips;
-  const int search = params_.roll_search_px;
-  const int bins = 2 * search + 1;
-  double sw = 0, sx = 0, sd = 0, sxx = 0, sxd = 0;
-  int used = 0;
-  for (int k = 0; k < strips; ++k) {
-    double delta = 0.0, excess = 0.0;
-    if (!stripPeak(&roll_total_[static_cast<std::size_t>(k * bins)], bins, roll_sorted_, delta, excess)) continue;
-    const double xc = (k + 0.5) * w / strips - static_cast<double>(ground.reference_column);
-    sw += excess;
-    sx += excess * xc;
-    sd += excess * delta;
-    sxx += excess * xc * xc;
-    sxd += excess * xc * delta;
-    ++used;
-  }
-  const double det = sw * sxx - sx * sx;
-  if (used < 3 || std::abs(det) < 1e-9) return;
-  const double slope = (sw * sxd - sx * sd) / det;
+  collectStrips(roll_total_.data(), w, ground.reference_column, 0.0);
+  double shift = 0.0, slope = 0.0;
+  if (!fitBandLine(std::numeric_limits<double>::infinity(), shift, slope, 3)) return;
   if (std::abs(slope) * w < params_.min_roll_px) return;
   ground.offset_per_column = static_cast<float>(slope);
   // On a transversal slope the row's correlation peak is smeared over the offsets the row
   // spans, and the line follows wherever the ground shows most: the strips' fit says where the
   // line lies at the reference column, and the whole line moves there (rows keep their spacing).
-  const double shift = (sd - slope * sx) / sw;
   // A prior comes from the mounting, not from this smeared peak: it stays where it is.
   if (ground.source != GroundSource::kHough || !std::isfinite(shift) || std::abs(shift) < 0.5 ||
-      std::abs(shift) > search)
+      std::abs(shift) > params_.roll_search_px)
     return;
   const float s = static_cast<float>(shift);
   for (std::size_t y = static_cast<std::size_t>(std::max(ground.horizon_row, 0)); y < ground.offset_per_row.size(); ++y)

@@ -135,8 +135,8 @@ class GroundEstimator {
   // beyond `roll` per column, weight; into band_column_, band_residual_, band_weight_.
   void collectStrips(const double* hist, int width, float reference_column, double roll);
   // Weighted line shift + tilt * column through the collected strips, leaving out those
-  // farther than max_deviation from the current line; false with fewer than four strips.
-  bool fitBandLine(double max_deviation, double& shift, double& tilt) const;
+  // farther than max_deviation from the current line; false with fewer than min_strips.
+  bool fitBandLine(double max_deviation, double& shift, double& tilt, int min_strips) const;
   // The strips' line fitted twice (outliers out), true when the strips agree with it.
   bool fitStrips(double& shift, double& tilt) const;
   // Row y has a peak within support_tolerance_px of offset d.
