@@ -648,6 +648,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     }
     int dmin = best, dmax = best;
     col_offset_.assign(static_cast<std::size_t>(cols), best);
+    const int own_x0 = x0, own_x1 = x1, own_y0 = y0, own_y1 = y1;  // the cluster before any growth
 
     if (params_.grow_walls) {
       // Mean column evidence of the cluster: an extension needs a fraction of it.
@@ -727,56 +728,79 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     }
 
     // Obstacles stand on the ground: the bottom is the contact row of the nearest offset.
-    bool floating = false;
-    if (ground_known) {
-      // The lowest contact over the box's columns (a receding wall meets the ground nearest
-      // at its near end; on a transversal slope the contact moves along the box).
-      // A contact below the image (a near obstacle) is the image's last row: the obstacle must
-      // reach down to it.
-      // Rows whose ground offset is within ground_clearance_px of d* are left out of the
-      // histograms (ground residue): the gap is measured to the last row the cluster could
-      // show in, and only the rows down to there can support it.
-      int contact = -1, lowest_shown = -1;
-      for (int x = x0; x <= x1; ++x) {
-        contact = std::max(contact, std::min(contactRowAt(col_offset_[static_cast<std::size_t>(x)], x), rows - 1));
-        lowest_shown = std::max(lowest_shown, col_limit_[static_cast<std::size_t>(x)]);
-      }
-      lowest_shown = std::min(lowest_shown, contact);
-      if (contact >= 0) {
-        const double allowed =
-            std::max(static_cast<double>(params_.contact_tolerance_px), params_.contact_tolerance_fraction * (y1 - y0 + 1));
-        if (y1 < lowest_shown - allowed) {
-          // Weakly textured lower parts (legs, a plain lower body) fall below the histogram's
-          // fraction of the peak: the cluster still stands on the ground when most rows down
-          // to there keep some match at d* inside its columns.
-          int rows_with_match = 0, rows_seen = 0;
-          for (int y = y1 + 1; y <= lowest_shown; ++y) {
-            ++rows_seen;
-            const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
-            for (int x = x0; x <= x1; ++x)
-              if (l[x] && inStripe(y, x) && maskAt(y, x)) {
-                ++rows_with_match;
-                break;
-              }
-          }
-          floating = rows_with_match < params_.min_support_fraction * rows_seen;
+    // Then the box's matched share and significance.
+    struct Verdict {
+      cv::Rect box;
+      bool floating = false, unmatched = false, significant = false;
+    };
+    auto judge = [&]() {
+      bool floating = false;
+      if (ground_known) {
+        // The lowest contact over the box's columns (a receding wall meets the ground nearest
+        // at its near end; on a transversal slope the contact moves along the box).
+        // A contact below the image (a near obstacle) is the image's last row: the obstacle must
+        // reach down to it.
+        // Rows whose ground offset is within ground_clearance_px of d* are left out of the
+        // histograms (ground residue): the gap is measured to the last row the cluster could
+        // show in, and only the rows down to there can support it.
+        int contact = -1, lowest_shown = -1;
+        for (int x = x0; x <= x1; ++x) {
+          contact = std::max(contact, std::min(contactRowAt(col_offset_[static_cast<std::size_t>(x)], x), rows - 1));
+          lowest_shown = std::max(lowest_shown, col_limit_[static_cast<std::size_t>(x)]);
         }
-        if (!floating) y1 = contact;
+        lowest_shown = std::min(lowest_shown, contact);
+        if (contact >= 0) {
+          const double allowed =
+              std::max(static_cast<double>(params_.contact_tolerance_px), params_.contact_tolerance_fraction * (y1 - y0 + 1));
+          if (y1 < lowest_shown - allowed) {
+            // Weakly textured lower parts (legs, a plain lower body) fall below the histogram's
+            // fraction of the peak: the cluster still stands on the ground when most rows down
+            // to there keep some match at d* inside its columns.
+            int rows_with_match = 0, rows_seen = 0;
+            for (int y = y1 + 1; y <= lowest_shown; ++y) {
+              ++rows_seen;
+              const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+              for (int x = x0; x <= x1; ++x)
+                if (l[x] && inStripe(y, x) && maskAt(y, x)) {
+                  ++rows_with_match;
+                  break;
+                }
+            }
+            floating = rows_with_match < params_.min_support_fraction * rows_seen;
+          }
+          if (!floating) y1 = contact;
+        }
       }
+      const cv::Rect box(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
+      const int count = sweepBox(box, -1, true);
+      const int present = cv::countNonZero(remaining(box));
+      const bool unmatched = count < params_.min_match_fraction * present;
+      // A weak cluster (its peak or its matches below the obstacle thresholds) stays when it has
+      // a person's size at d*: size in metres = pixels x baseline / offset.
+      bool significant = strong_peak && count >= params_.min_cluster_features;
+      if (!significant && weak_search && count >= params_.weak_cluster_features && best > 0) {
+        const double metres_per_px = baseline_m / best;
+        const double height_m = box.height * metres_per_px;
+        significant = height_m >= params_.weak_min_height_m && height_m <= params_.weak_max_height_m &&
+                      box.width * metres_per_px <= params_.weak_max_width_m;
+      }
+      return Verdict{box, floating, unmatched, significant};
+    };
+    Verdict verdict = judge();
+    if (verdict.unmatched && params_.ungrown_retry && (dmin != best || dmax != best)) {
+      // The growth over neighbouring offsets took in columns whose features mostly match
+      // elsewhere (what stands beside or behind it): the cluster is judged again on its own
+      // columns.
+      std::fill(col_offset_.begin(), col_offset_.end(), best);
+      x0 = own_x0;
+      x1 = own_x1;
+      y0 = own_y0;
+      y1 = own_y1;
+      dmin = dmax = best;
+      verdict = judge();
     }
-    const cv::Rect box(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
-    const int count = sweepBox(box, -1, true);
-    const int present = cv::countNonZero(remaining(box));
-    const bool unmatched = count < params_.min_match_fraction * present;
-    // A weak cluster (its peak or its matches below the obstacle thresholds) stays when it has
-    // a person's size at d*: size in metres = pixels x baseline / offset.
-    bool significant = strong_peak && count >= params_.min_cluster_features;
-    if (!significant && weak_search && count >= params_.weak_cluster_features && best > 0) {
-      const double metres_per_px = baseline_m / best;
-      const double height_m = box.height * metres_per_px;
-      significant = height_m >= params_.weak_min_height_m && height_m <= params_.weak_max_height_m &&
-                    box.width * metres_per_px <= params_.weak_max_width_m;
-    }
+    const cv::Rect box = verdict.box;
+    const bool floating = verdict.floating, unmatched = verdict.unmatched, significant = verdict.significant;
     if (floating || unmatched || !significant || box.height < params_.min_height_px || box.width < params_.min_width_px) {
       rejectCandidate(cv::Rect(cx.lo, cy.lo, cx.hi - cx.lo + 1, cy.hi - cy.lo + 1) | box);
       continue;

@@ -64,6 +64,7 @@ struct ObstacleParams {
   double ground_clearance_px = 2.5;  // rows whose ground offset is within this of d are left out (ground residue)
   double background_margin_px = 1.5;  // offsets within this of the background line are background residue
   bool grow_walls = true;           // grow clusters over neighbouring offsets (walls receding in depth)
+  bool ungrown_retry = true;        // a grown cluster failing the matched share is judged on its own columns
   int min_growth_matches = 20;      // matched pixels an extension needs
   int cell_px = 4;                  // side of the cells whose connected set is the cluster (0: histograms only)
   int cell_reach = 1;               // cells connect within this many cells of each other
@@ -116,6 +117,7 @@ struct ObstacleParams {
             "histograms of offset d skip rows whose ground offset is above d minus this");
     v.field("background_margin_px", background_margin_px, 0.0, 100.0, "pixels", "background residue margin");
     v.field("grow_walls", grow_walls, 0, 1, "", "grow clusters over neighbouring offsets");
+    v.field("ungrown_retry", ungrown_retry, 0, 1, "", "judge a grown cluster that fails the matched share on its own columns");
     v.field("min_growth_matches", min_growth_matches, 1, 10000000, "pixels", "matches an extension needs");
     v.field("cell_px", cell_px, 0, 256, "pixels", "cell side of the cluster's connected extent (0: histograms)");
     v.field("cell_reach", cell_reach, 1, 16, "cells", "cells connect within this distance");

@@ -44,6 +44,7 @@ int main(int argc, char** argv) {
     if (const char* v = std::getenv("GBAND")) sgp.ground.profile_band_rows = std::atoi(v);
     if (const char* v = std::getenv("GAP")) sgp.obstacles.gap_px = std::atoi(v);
     if (const char* v = std::getenv("EXTENT")) sgp.obstacles.extent_fraction = std::atof(v);
+    if (const char* v = std::getenv("UNGROWN")) sgp.obstacles.ungrown_retry = std::atoi(v) != 0;
     if (const char* v = std::getenv("PLAIN")) sgp.obstacles.join_plain_faces = std::atoi(v) != 0;
     if (const char* v = std::getenv("TRIM")) sgp.obstacles.trim_occluded_left = std::atoi(v) != 0;
     Segmenter seg(sgp);
