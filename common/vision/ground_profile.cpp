@@ -592,8 +592,7 @@ void GroundEstimator::rollFit(int w, GroundProfile& ground) {
   // measure the shift there, with the band's own tilt (where the ground bends, its
   // transversal slope changes too).
   const int rows = static_cast<int>(ground.offset_per_row.size());
-  band_shift_.clear();
-  band_tilt_.clear();
+  band_fits_.clear();
   // Band 0, next to the horizon, is not used: its rows are a few offsets apart, its texture is
   // fine, and the far objects standing there pull its strips nearer (on the generated scenes
   // band 1's shift carried up was nearer the truth there than band 0's own).
@@ -603,35 +602,33 @@ void GroundEstimator::rollFit(int w, GroundProfile& ground) {
     if (!fitStrips(shift, tilt)) continue;
     const int first = roll_first_row_ + b * params_.profile_band_rows;
     const int last = b == roll_bands_ - 1 ? rows - 1 : first + params_.profile_band_rows - 1;
-    band_shift_.emplace_back(static_cast<float>(shift), 0.5f * static_cast<float>(first + last));
-    band_tilt_.push_back(static_cast<float>(slope + tilt));
+    band_fits_.push_back(BandFit{0.5f * static_cast<float>(first + last), static_cast<float>(shift),
+                                 static_cast<float>(slope + tilt)});
   }
-  if (band_shift_.empty()) return;
+  if (band_fits_.empty()) return;
   // Between band centres the shifts and slopes are interpolated, beyond the outer ones kept.
-  auto interpolate = [&](float y, auto value) {
-    if (y <= band_shift_.front().y) return value(0);
-    for (std::size_t i = 1; i < band_shift_.size(); ++i) {
-      const float ya = band_shift_[i - 1].y;
-      const float yb = band_shift_[i].y;
-      if (y <= yb) return value(i - 1) + (value(i) - value(i - 1)) * (y - ya) / (yb - ya);
+  auto interpolate = [&](float y, float BandFit::*value) {
+    if (y <= band_fits_.front().row) return band_fits_.front().*value;
+    for (std::size_t i = 1; i < band_fits_.size(); ++i) {
+      const BandFit& a = band_fits_[i - 1];
+      const BandFit& b = band_fits_[i];
+      if (y <= b.row) return a.*value + (b.*value - a.*value) * (y - a.row) / (b.row - a.row);
     }
-    return value(band_shift_.size() - 1);
+    return band_fits_.back().*value;
   };
-  auto shiftOf = [&](std::size_t i) { return band_shift_[i].x; };
-  auto tiltOf = [&](std::size_t i) { return band_tilt_[i]; };
   const int horizon = std::max(ground.horizon_row, 0);
   for (int y = horizon; y < rows; ++y) {
     float& d = ground.offset_per_row[static_cast<std::size_t>(y)];
-    if (std::isfinite(d)) d += interpolate(static_cast<float>(y), shiftOf);
+    if (std::isfinite(d)) d += interpolate(static_cast<float>(y), &BandFit::shift);
   }
   // The transversal slope per row, where any band's differs measurably from none.
-  const bool tilted = std::any_of(band_tilt_.begin(), band_tilt_.end(), [&](float t) {
-    return std::abs(static_cast<double>(t)) * w >= params_.min_roll_px;
+  const bool tilted = std::any_of(band_fits_.begin(), band_fits_.end(), [&](const BandFit& f) {
+    return std::abs(static_cast<double>(f.tilt)) * w >= params_.min_roll_px;
   });
   if (tilted) {
     ground.offset_per_column_by_row.assign(static_cast<std::size_t>(rows), ground.offset_per_column);
     for (int y = horizon; y < rows; ++y)
-      ground.offset_per_column_by_row[static_cast<std::size_t>(y)] = interpolate(static_cast<float>(y), tiltOf);
+      ground.offset_per_column_by_row[static_cast<std::size_t>(y)] = interpolate(static_cast<float>(y), &BandFit::tilt);
   }
   // The horizon follows the corrected line: rows now nearer than the background belong to it.
   int new_horizon = horizon;
@@ -640,18 +637,18 @@ void GroundEstimator::rollFit(int w, GroundProfile& ground) {
       ground.offset_per_row[static_cast<std::size_t>(new_horizon++)] = ground.background_offset;
   ground.horizon_row = new_horizon;
   // The polyline: the background, then the ground at its old vertices and at the band centres.
-  band_order_.clear();
-  for (const cv::Point2f& v : ground.vertices) band_order_.push_back(static_cast<int>(std::lround(v.y)));
-  for (const cv::Point2f& p : band_shift_) band_order_.push_back(static_cast<int>(std::lround(p.y)));
-  band_order_.push_back(rows - 1);
-  std::sort(band_order_.begin(), band_order_.end());
-  band_order_.erase(std::unique(band_order_.begin(), band_order_.end()), band_order_.end());
+  vertex_rows_.clear();
+  for (const cv::Point2f& v : ground.vertices) vertex_rows_.push_back(static_cast<int>(std::lround(v.y)));
+  for (const BandFit& f : band_fits_) vertex_rows_.push_back(static_cast<int>(std::lround(f.row)));
+  vertex_rows_.push_back(rows - 1);
+  std::sort(vertex_rows_.begin(), vertex_rows_.end());
+  vertex_rows_.erase(std::unique(vertex_rows_.begin(), vertex_rows_.end()), vertex_rows_.end());
   ground.vertices.clear();
   if (std::isfinite(ground.background_offset)) {
     ground.vertices.emplace_back(ground.background_offset, 0.0f);
     ground.vertices.emplace_back(ground.background_offset, static_cast<float>(new_horizon));
   }
-  for (const int y : band_order_)
+  for (const int y : vertex_rows_)
     if (y > new_horizon && y < rows)
       ground.vertices.emplace_back(ground.offset_per_row[static_cast<std::size_t>(y)], static_cast<float>(y));
 }

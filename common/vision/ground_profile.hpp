@@ -163,9 +163,13 @@ class GroundEstimator {
   std::vector<double> band_column_;      // per strip of a band: centre column, shift beyond the roll, weight
   std::vector<double> band_residual_;
   std::vector<double> band_weight_;
-  std::vector<int> band_order_;
-  std::vector<cv::Point2f> band_shift_;  // (shift, centre row) of the measured bands
-  std::vector<float> band_tilt_;         // their transversal slopes
+  struct BandFit {
+    float row;    // the band's centre row
+    float shift;  // the line's correction there, at the reference column
+    float tilt;   // the band's transversal slope (offset pixels per column)
+  };
+  std::vector<BandFit> band_fits_;       // the bands that passed the agreement test, top to bottom
+  std::vector<int> vertex_rows_;         // rows of the corrected polyline's ground vertices
   // Scratch of the fast paths, sized on the first frame and reused.
   std::vector<Peak> row_peaks_;
   std::vector<int> bin_shift_;          // Hough bin - row - rows per slope and offset (slope-major)

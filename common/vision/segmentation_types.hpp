@@ -38,6 +38,10 @@ struct GroundProfile {
     return offset_per_column_by_row.empty() ? offset_per_column
                                             : offset_per_column_by_row[static_cast<std::size_t>(y)];
   }
+  // The ground's offset at row y (below the horizon) and column x.
+  float groundOffsetAt(int y, float x) const {
+    return offset_per_row[static_cast<std::size_t>(y)] + offsetPerColumnAt(y) * (x - reference_column);
+  }
   int horizon_row = -1;                // rows above it belong to the background line
   float background_offset = kUnknown;  // offset of the vertical background line (pixels)
   std::vector<cv::Point2f> vertices;   // polyline vertices (x = offset, y = row), top to bottom

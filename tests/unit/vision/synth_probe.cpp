@@ -62,8 +62,7 @@ int main(int argc, char** argv) {
     for (int y = std::max(r.ground.horizon_row, 0); y < pair.left.rows; ++y)
       for (int x = 0; x < pair.left.cols; ++x) {
         if (t.object_id.at<std::uint16_t>(y, x) != 0) continue;
-        const float model = r.ground.offset_per_row[static_cast<std::size_t>(y)] +
-                            r.ground.offsetPerColumnAt(y) * (static_cast<float>(x) - r.ground.reference_column);
+        const float model = r.ground.groundOffsetAt(y, static_cast<float>(x));
         ++ground_px;
         ground_ok += std::abs(model - t.disparity.at<float>(y, x)) <= 1.0f;
       }
@@ -73,8 +72,7 @@ int main(int argc, char** argv) {
       for (int y = std::max(r.ground.horizon_row, 0); y < pair.left.rows; y += 5) {
         std::printf("   y %3d", y);
         for (const int x : xs) {
-          const float model = r.ground.offset_per_row[static_cast<std::size_t>(y)] +
-                              r.ground.offsetPerColumnAt(y) * (static_cast<float>(x) - r.ground.reference_column);
+          const float model = r.ground.groundOffsetAt(y, static_cast<float>(x));
           const bool g = t.object_id.at<std::uint16_t>(y, x) == 0;
           std::printf(" | x%4d %6.2f %6.2f%s", x, static_cast<double>(model), static_cast<double>(t.disparity.at<float>(y, x)), g ? " " : "*");
         }

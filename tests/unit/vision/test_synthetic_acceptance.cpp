@@ -76,8 +76,7 @@ double groundPixelsWithin1(const GroundProfile& g, const SceneTruth& t) {
   for (int y = std::max(g.horizon_row, 0); y < t.object_id.rows; ++y)
     for (int x = 0; x < t.object_id.cols; ++x) {
       if (t.object_id.at<std::uint16_t>(y, x) != 0) continue;
-      const float model =
-          g.offset_per_row[static_cast<std::size_t>(y)] + g.offsetPerColumnAt(y) * (static_cast<float>(x) - g.reference_column);
+      const float model = g.groundOffsetAt(y, static_cast<float>(x));
       ++n;
       ok += std::abs(model - t.disparity.at<float>(y, x)) <= 1.0f;
     }
