@@ -85,13 +85,7 @@ void FeatureRemover::removeRowsFast(const cv::Mat& left, const cv::Mat& right, c
   const int tol = params_.grey_tolerance;
   const int otol = params_.offset_tolerance_px;
   scratch.marks.resize(static_cast<std::size_t>(w));
-  scratch.background.resize(static_cast<std::size_t>(w));
-  scratch.d0.resize(static_cast<std::size_t>(w));
-  scratch.d1.resize(static_cast<std::size_t>(w));
   std::uint8_t* marks = scratch.marks.data();
-  std::uint8_t* shows_background = scratch.background.data();
-  int* d0 = scratch.d0.data();
-  int* d1 = scratch.d1.data();
   for (int y = y0; y < y1; ++y) {
     const std::uint8_t* l = left.ptr<std::uint8_t>(y);
     const std::uint8_t* r = right.ptr<std::uint8_t>(y);
@@ -110,43 +104,65 @@ void FeatureRemover::removeRowsFast(const cv::Mat& left, const cv::Mat& right, c
       removeRows(left, right, ground, remaining, labels, changed_rows, y, y + 1);
       continue;
     }
-    std::fill(marks, marks + w, std::uint8_t{0});
-    std::fill(shows_background, shows_background + w, std::uint8_t{0});
-    bool changed = false;
-    if (tame) {
-      // The reference's window per column: floor/ceil of the same float centre.
+    if (!tame) {  // no ground line on this row: every feature stays
       for (int x = 0; x < w; ++x) {
-        const float along = offset + per_column * (static_cast<float>(x) - ref);
-        const bool behind = along < floor_offset;
-        shows_background[x] = behind;
-        const float centre = behind ? floor_offset : along;
-        const int t = static_cast<int>(centre);
-        const float tf = static_cast<float>(t);
-        const int fl = t - (centre < tf ? 1 : 0);
-        const int cl = t + (centre > tf ? 1 : 0);
-        d0[x] = std::max(fl - otol, 0);
-        d1[x] = cl + otol;
+        out[x] = l[x];
+        lab[x] = l[x] != 0 ? std::uint8_t{kLabelUnassigned} : std::uint8_t{kLabelNone};
       }
-      // Runs of columns sharing a window.
-      for (int xa = 0; xa < w;) {
-        int xb = xa + 1;
-        while (xb < w && d0[xb] == d0[xa] && d1[xb] == d1[xa]) ++xb;
-        simd::markMatches(l, r, xa, xb, d0[xa], d1[xa], tol, marks);
-        xa = xb;
-      }
+      changed_rows[static_cast<std::size_t>(y)] = 0;
+      continue;
     }
-    const std::uint8_t label = is_ground ? kLabelGround : kLabelBackground;
+    // The reference's window of column x: floor/ceil of the same float centre, widened by the
+    // offset tolerance, and whether the background shows there instead of the ground.
+    struct Window {
+      int d0, d1;
+      bool behind;
+      bool operator==(const Window&) const = default;
+    };
+    auto windowAt = [&](int x) {
+      const float along = offset + per_column * (static_cast<float>(x) - ref);
+      const bool behind = along < floor_offset;
+      const float centre = behind ? floor_offset : along;
+      const int t = static_cast<int>(centre);
+      const float tf = static_cast<float>(t);
+      const int fl = t - (centre < tf ? 1 : 0);
+      const int cl = t + (centre > tf ? 1 : 0);
+      return Window{std::max(fl - otol, 0), cl + otol, behind};
+    };
+    // Each part of the window is a monotone function of x (float rounding keeps the line's
+    // order), so the columns sharing a window form one run: its end is found by doubling steps,
+    // then bisection, instead of column by column.
+    std::fill(marks, marks + w, std::uint8_t{0});
+    const std::uint8_t ground_label = is_ground ? kLabelGround : kLabelBackground;
     std::uint8_t any = 0;
-    for (int x = 0; x < w; ++x) {
-      const std::uint8_t m = marks[x];
-      const std::uint8_t a = l[x];
-      out[x] = m ? std::uint8_t{0} : a;
-      lab[x] = a == 0 ? std::uint8_t{kLabelNone}
-                      : (m ? (shows_background[x] ? std::uint8_t{kLabelBackground} : label) : std::uint8_t{kLabelUnassigned});
-      any |= m;
+    for (int xa = 0; xa < w;) {
+      const Window win = windowAt(xa);
+      int same = xa, differs = w;
+      for (int step = 1; same + step < w; step *= 2) {
+        if (!(windowAt(same + step) == win)) {
+          differs = same + step;
+          break;
+        }
+        same += step;
+      }
+      while (differs - same > 1) {
+        const int mid = same + (differs - same) / 2;
+        if (windowAt(mid) == win) same = mid;
+        else differs = mid;
+      }
+      const int xb = same + 1;
+      simd::markMatches(l, r, xa, xb, win.d0, win.d1, tol, marks);
+      const std::uint8_t label = win.behind ? std::uint8_t{kLabelBackground} : ground_label;
+      for (int x = xa; x < xb; ++x) {
+        const std::uint8_t m = marks[x];
+        const std::uint8_t a = l[x];
+        out[x] = m ? std::uint8_t{0} : a;
+        lab[x] = a == 0 ? std::uint8_t{kLabelNone} : (m ? label : std::uint8_t{kLabelUnassigned});
+        any |= m;
+      }
+      xa = xb;
     }
-    changed = any != 0;
-    changed_rows[static_cast<std::size_t>(y)] = changed ? 1 : 0;
+    changed_rows[static_cast<std::size_t>(y)] = any != 0 ? 1 : 0;
   }
 }
 

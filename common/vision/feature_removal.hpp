@@ -60,8 +60,6 @@ class FeatureRemover {
   float backgroundFloor(const GroundProfile& ground, bool ground_row) const;
   struct BandScratch {
     std::vector<std::uint8_t> marks;
-    std::vector<std::uint8_t> background;  // per column: the background's offset, not the ground's
-    std::vector<int> d0, d1;
   };
   void removeRowsFast(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& remaining,
                       cv::Mat& labels, std::vector<std::uint8_t>& changed_rows, int y0, int y1,

@@ -360,11 +360,21 @@ TEST(FastRemoval, MatchesTheReferenceWithTransversalSlopeAndUnknownRows) {
   ground.offset_per_row[5] = GroundProfile::kUnknown;
   ground.offset_per_row[20] = GroundProfile::kUnknown;
   ground.offset_per_row[39] = 400.0f;  // wider than the image
+  // Per-row slopes of both signs (a twisted ground), for the runs of columns sharing a window.
+  std::vector<float> twisted(static_cast<std::size_t>(size.height));
+  for (int y = 0; y < size.height; ++y) twisted[static_cast<std::size_t>(y)] = 0.004f * static_cast<float>(y - 25);
+  // Without a background line, and with one that the ground crosses within the rows (where the
+  // ground would lie beyond it, the background is matched and labelled).
+  for (float background : {GroundProfile::kUnknown, 3.0f, 6.5f})
+  for (bool per_row : {false, true})
   for (float per_column : {0.0f, 0.013f, -0.05f, 0.5f}) {
     for (int offset_tol : {0, 1, 3}) {
       for (int grey_tol : {0, 12, 254}) {
-        SCOPED_TRACE("per column " + std::to_string(per_column) + ", offset tolerance " + std::to_string(offset_tol) +
-                     ", grey tolerance " + std::to_string(grey_tol));
+        SCOPED_TRACE("per column " + std::to_string(per_column) + (per_row ? " and per row" : "") +
+                     ", background " + std::to_string(background) + ", offset tolerance " +
+                     std::to_string(offset_tol) + ", grey tolerance " + std::to_string(grey_tol));
+        ground.background_offset = background;
+        ground.offset_per_column_by_row = per_row ? twisted : std::vector<float>{};
         ground.offset_per_column = per_column;
         ground.reference_column = 100.5f;
         RemovalParams rp;
