@@ -274,10 +274,12 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
 // row, no left feature, or a right match), then the windows ANDed over [-half, half].
 // N offsets d .. d + N - 1 at a time, one q row each: a left vector and its grey range
 // serve all of them, and their windows are ORed before `out` is updated.
-template <int N>
+// H >= 0 is the window's half width known at compile time (its loops unrolled), H < 0 takes `half`.
+template <int N, int H>
 [[gnu::always_inline]] inline void windowGroup(const std::uint8_t* left, const std::uint8_t* right, int width, int x0,
-                                               int x1, int d, int tol, int half, std::uint8_t* scratch,
+                                               int x1, int d, int tol, int runtime_half, std::uint8_t* scratch,
                                                std::uint8_t* out) {
+  const int half = H >= 0 ? H : runtime_half;
   const U8x32 vtol = splatFromTable(tol);  // tol in [0, 255]
   const U8x32 vtop = splatFromTable(255 - tol);
   const U8x32 one = splat(1);
@@ -297,9 +299,9 @@ template <int N>
   for (int i = 0; i < N; ++i) {
     const int ja = std::min(std::max(qlo, d + i), qhi);
     const int jb = std::max(jw, ja);
-    std::memset(q[i], 0xFF, static_cast<std::size_t>(ja - qlo));
+    if (ja > qlo) std::memset(q[i], 0xFF, static_cast<std::size_t>(ja - qlo));
     for (int j = ja; j < std::min(ja_all, jb); ++j) qScalar(i, j);
-    std::memset(q[i] + (jb - qlo), 0xFF, static_cast<std::size_t>(qhi - jb));
+    if (qhi > jb) std::memset(q[i] + (jb - qlo), 0xFF, static_cast<std::size_t>(qhi - jb));
   }
   // The last vector may overlap the one before it (same values written twice).
   auto qVector = [&](int j) __attribute__((always_inline)) {
@@ -350,11 +352,21 @@ template <int N>
   const int dlast = std::min(d1, x1 - 1);
   for (int d = std::max(d0, 0); d <= dlast; d += kWindowGroup) {
     static_assert(kWindowGroup == 4);
-    switch (std::min(kWindowGroup, dlast - d + 1)) {
-      case 1: windowGroup<1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
-      case 2: windowGroup<2>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
-      case 3: windowGroup<3>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
-      default: windowGroup<4>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
+    const int n = std::min(kWindowGroup, dlast - d + 1);
+    if (half == 1) {  // the default window: its loops unrolled
+      switch (n) {
+        case 1: windowGroup<1, 1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
+        case 2: windowGroup<2, 1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
+        case 3: windowGroup<3, 1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
+        default: windowGroup<4, 1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
+      }
+    } else {
+      switch (n) {
+        case 1: windowGroup<1, -1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
+        case 2: windowGroup<2, -1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
+        case 3: windowGroup<3, -1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
+        default: windowGroup<4, -1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
+      }
     }
   }
 }
