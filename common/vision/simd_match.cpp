@@ -49,7 +49,31 @@ constexpr SplatTable kSplats = makeSplatTable();
 // Adds the byte lanes of `acc` to counts[first_lane_offset - j] for lane j (offsets
 // below `offsets` only) and clears them. Lanes go through memory: indexing a vector
 // register by a variable would keep the accumulators out of registers.
+typedef std::uint8_t U8x8 __attribute__((vector_size(8)));
+typedef std::int32_t I32x8w __attribute__((vector_size(32)));
+
+[[gnu::always_inline]] inline void addWidened(U8x8 part, int* counts) {
+  I32x8w c;
+  std::memcpy(&c, counts, sizeof(c));
+  c += __builtin_convertvector(part, I32x8w);
+  std::memcpy(counts, &c, sizeof(c));
+}
+
 [[gnu::always_inline]] inline void flushLanes(U8x32& acc, int first_lane_offset, int offsets, int* counts) {
+  static_assert(kLanes == 32);
+  if (first_lane_offset - (kLanes - 1) >= 0 && first_lane_offset < offsets) {
+    // All 32 offsets exist: the lanes reversed (lane k then holds offset first - 31 + k),
+    // widened to 32 bits eight at a time and added.
+    const U8x32 r = __builtin_shufflevector(acc, acc, 31, 30, 29, 28, 27, 26, 25, 24, 23, 22, 21, 20, 19, 18, 17, 16,
+                                            15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
+    int* c = counts + first_lane_offset - (kLanes - 1);
+    addWidened(__builtin_shufflevector(r, r, 0, 1, 2, 3, 4, 5, 6, 7), c);
+    addWidened(__builtin_shufflevector(r, r, 8, 9, 10, 11, 12, 13, 14, 15), c + 8);
+    addWidened(__builtin_shufflevector(r, r, 16, 17, 18, 19, 20, 21, 22, 23), c + 16);
+    addWidened(__builtin_shufflevector(r, r, 24, 25, 26, 27, 28, 29, 30, 31), c + 24);
+    acc = U8x32{};
+    return;
+  }
   std::uint8_t lanes[kLanes];
   std::memcpy(lanes, &acc, sizeof(lanes));
   for (int j = 0; j < kLanes; ++j) {
