@@ -483,7 +483,8 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           continue;
         const std::uint8_t* mk = maskRow(candidate_masks_, remaining, right, y, xa, xb + 1);
         if (y <= stripe_floor) {  // every column shows this row
-          for (int x = xa; x <= xb; ++x) h[x] = static_cast<std::uint16_t>(h[x] + mk[x]);
+          if (fast_) simd::addBytes(mk + xa, h + xa, xb - xa + 1);
+          else for (int x = xa; x <= xb; ++x) h[x] = static_cast<std::uint16_t>(h[x] + mk[x]);
         } else {
           for (int x = xa; x <= xb; ++x) h[x] = static_cast<std::uint16_t>(h[x] + (y <= lim[x] ? mk[x] : 0));
         }

@@ -595,8 +595,27 @@ template <int kFloats>
   return best;
 }
 
+typedef std::uint8_t U8x16 __attribute__((vector_size(16)));
+typedef std::uint16_t U16x16 __attribute__((vector_size(32)));
+
+[[gnu::always_inline]] inline void addBytesImpl(const std::uint8_t* bytes, std::uint16_t* sums, int n) {
+  int i = 0;
+  for (; i + 16 <= n; i += 16) {
+    U8x16 b;
+    U16x16 s;
+    std::memcpy(&b, bytes + i, sizeof(b));
+    std::memcpy(&s, sums + i, sizeof(s));
+    s += __builtin_convertvector(b, U16x16);
+    std::memcpy(sums + i, &s, sizeof(s));
+  }
+  for (; i < n; ++i) sums[i] = static_cast<std::uint16_t>(sums[i] + bytes[i]);
+}
+
 #if defined(__x86_64__) || defined(__i386__)
 #define SG_SIMD_X86 1
+[[gnu::target("avx2")]] void addBytesAvx2(const std::uint8_t* bytes, std::uint16_t* sums, int n) {
+  addBytesImpl(bytes, sums, n);
+}
 [[gnu::target("avx2")]] float windowSumsAvx2(const float* lo, const float* mid, const float* hi, int n, float* out) {
   return windowSumsImpl<8>(lo, mid, hi, n, out);
 }
@@ -639,6 +658,8 @@ void windowMatchBaseline(const std::uint8_t* left, const std::uint8_t* right, in
                          int d1, int tol, int half, std::uint8_t* q, std::uint8_t* out) {
   windowMatchImpl(left, right, width, x0, x1, d0, d1, tol, half, q, out);
 }
+
+void addBytesBaseline(const std::uint8_t* bytes, std::uint16_t* sums, int n) { addBytesImpl(bytes, sums, n); }
 
 void rowExcessBaseline(const int* counts, int median, int min_excess, int row, const int* last_row, int n, int* excess,
                        int* sum) {
@@ -729,6 +750,13 @@ void windowMatchRow(const std::uint8_t* left, const std::uint8_t* right, int wid
   if (useAvx2()) return windowMatchAvx2(left, right, width, x0, x1, d0, d1, grey_tolerance, half, scratch, out);
 #endif
   windowMatchBaseline(left, right, width, x0, x1, d0, d1, grey_tolerance, half, scratch, out);
+}
+
+void addBytes(const std::uint8_t* bytes, std::uint16_t* sums, int n) {
+#ifdef SG_SIMD_X86
+  if (useAvx2()) return addBytesAvx2(bytes, sums, n);
+#endif
+  addBytesBaseline(bytes, sums, n);
 }
 
 void replaceRowExcess(const int* counts, int median, int min_excess, int row, const int* last_row, int n, int* excess,

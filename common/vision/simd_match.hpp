@@ -56,6 +56,9 @@ constexpr int windowMatchScratchSize(int span, int half) { return kWindowGroup *
 void windowMatchRow(const std::uint8_t* left, const std::uint8_t* right, int width, int x0, int x1, int d0, int d1,
                     int grey_tolerance, int half, std::uint8_t* scratch, std::uint8_t* out);
 
+// sums[i] += bytes[i] (modulo 2^16) for i in [0, n): per-column counts of a 0/1 mask row.
+void addBytes(const std::uint8_t* bytes, std::uint16_t* sums, int n);
+
 // Obstacle offset histogram, one row: for d in [0, n), the row's excess e = counts[d] -
 // median where it is at least min_excess and row <= last_row[d], else 0, replaces its
 // previous excess held in excess[d], and sum[d] follows (sum[d] += e - excess[d]).

@@ -412,6 +412,24 @@ void randomFeatureRow(cv::RNG& rng, int width, std::vector<std::uint8_t>& row) {
   }
 }
 
+// The column histogram's row sum: 16-bit sums of bytes, wrapping as the scalar sum does.
+TEST(FastObstacles, AddBytesMatchesTheScalarSum) {
+  cv::RNG rng(31);
+  for (const int n : {0, 1, 15, 16, 17, 33, 100, 1242}) {
+    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(n));
+    std::vector<std::uint16_t> fast(static_cast<std::size_t>(n)), ref;
+    for (int i = 0; i < n; ++i) {
+      bytes[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(rng.uniform(0, 256));
+      fast[static_cast<std::size_t>(i)] = static_cast<std::uint16_t>(i % 3 == 0 ? 65535 - rng.uniform(0, 200) : rng.uniform(0, 1000));
+    }
+    ref = fast;
+    for (int i = 0; i < n; ++i)
+      ref[static_cast<std::size_t>(i)] = static_cast<std::uint16_t>(ref[static_cast<std::size_t>(i)] + bytes[static_cast<std::size_t>(i)]);
+    simd::addBytes(bytes.data(), fast.data(), n);
+    EXPECT_EQ(fast, ref) << "n " << n;
+  }
+}
+
 TEST(FastObstacles, WindowMatchRowMatchesTheReferenceForAnyOffsetsWindowAndSpan) {
   cv::RNG rng(23);
   std::vector<std::uint8_t> left, right, scratch, fast, ref;
