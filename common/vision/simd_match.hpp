@@ -5,7 +5,8 @@
 // order, lane by lane: every kernel gives exactly the results of its scalar
 // reference. Written with the compiler's portable vector
 // types; on x86-64 an AVX2 build of each kernel is picked at run time when the
-// processor has it, otherwise the baseline (SSE2) build runs.
+// processor has it, otherwise the baseline (SSE2) build runs. The environment
+// variable SG_SIMD=baseline selects the baseline build on any processor.
 #include <cstdint>
 
 namespace sg::simd {
