@@ -45,6 +45,13 @@ int main(int argc, char** argv) {
     double width = 0.0, height = 0.0;  // sums of detection / label ratios
   };
   BoxSize box_size[kBins];
+  // By view (|cos(rotation_y)| above 0.7: side view, below 0.3: front or back) and range
+  // (nearer than 15 m or not): people, found, and the misses by reason.
+  struct ViewTally {
+    int people = 0, found = 0, no_cluster = 0, no_box = 0, low_score = 0;
+  };
+  ViewTally views[3][2];
+  const char* view_names[3] = {"side", "oblique", "front/back"};
   for (int i = 0; i < n; ++i) {
     const std::uint64_t seed = first + static_cast<std::uint64_t>(i);
     const test::SeedDetection run = test::detectSyntheticSeed(detector, seed);
@@ -68,8 +75,12 @@ int main(int argc, char** argv) {
         b.height += best_box.height / truth.height;
       }
       ++bin_people[bin];
+      const double facing = std::abs(std::cos(l.rotation_y));
+      ViewTally& view = views[facing > 0.7 ? 0 : facing >= 0.3 ? 1 : 2][l.location_m[2] < 15.0 ? 0 : 1];
+      ++view.people;
       if (best >= 0.5 && best_score >= 0.5) {
         ++bin_found[bin];
+        ++view.found;
         continue;
       }
       ++missed;
@@ -84,6 +95,9 @@ int main(int argc, char** argv) {
       no_cluster += cluster_cover < 0.5;
       loose += cluster_cover >= 0.5 && best < 0.5;
       low_score += cluster_cover >= 0.5 && best >= 0.5;
+      view.no_cluster += cluster_cover < 0.5;
+      view.no_box += cluster_cover >= 0.5 && best < 0.5;
+      view.low_score += cluster_cover >= 0.5 && best >= 0.5;
       std::printf("   truth [%.0f %.0f %.0f %.0f] best [%.0f %.0f %.0f %.0f]\n", truth.x, truth.y, truth.br().x, truth.br().y,
                   best_box.x, best_box.y, best_box.br().x, best_box.br().y);
       std::printf("seed %llu z %5.1f h %3.0f w %3.0f occ %d trunc %.2f | best det iou %.2f score %.2f | cluster cover %.2f iou %.2f d %d  %s\n",
@@ -131,6 +145,14 @@ int main(int argc, char** argv) {
       std::printf("  %d-%s m %.2f %.2f", 5 * b, b + 1 < kBins ? std::to_string(5 * b + 5).c_str() : "",
                   box_size[b].width / box_size[b].n, box_size[b].height / box_size[b].n);
   std::printf("\n");
+  std::printf("found at score 0.5 by view and range (missed: no cluster / no box / low score):\n");
+  for (int v = 0; v < 3; ++v)
+    for (int r = 0; r < 2; ++r) {
+      const ViewTally& t = views[v][r];
+      if (t.people > 0)
+        std::printf("  %-10s %s %3d/%3d = %.2f  (%d / %d / %d)\n", view_names[v], r == 0 ? "< 15 m " : ">= 15 m",
+                    t.found, t.people, static_cast<double>(t.found) / t.people, t.no_cluster, t.no_box, t.low_score);
+    }
   std::printf("pedestrians %d, missed at score 0.5 %d: no cluster %d, no box at IoU 0.5 %d, low score %d; recall at 0.2 FP/frame %.3f\n",
               s.ground_truth, missed, no_cluster, loose, low_score, evaluator.recallAtFpPerFrame(0.2));
 }
