@@ -47,19 +47,21 @@ constexpr SplatTable kSplats = makeSplatTable();
   return std::bit_cast<U8x32>(U32x8{} + word);
 }
 
-// Adds the byte lanes of `acc` to counts[first_lane_offset - j] for lane j (offsets
-// below `offsets` only) and clears them. Lanes go through memory: indexing a vector
-// register by a variable would keep the accumulators out of registers.
 typedef std::uint8_t U8x8 __attribute__((vector_size(8)));
-typedef std::int32_t I32x8w __attribute__((vector_size(32)));
+typedef std::int32_t I32x8 __attribute__((vector_size(32)));
 
+// counts[0..7] += the eight bytes of `part`, widened.
 [[gnu::always_inline]] inline void addWidened(U8x8 part, int* counts) {
-  I32x8w c;
+  I32x8 c;
   std::memcpy(&c, counts, sizeof(c));
-  c += __builtin_convertvector(part, I32x8w);
+  c += __builtin_convertvector(part, I32x8);
   std::memcpy(counts, &c, sizeof(c));
 }
 
+// Adds the byte lanes of `acc` to counts[first_lane_offset - j] for lane j (offsets
+// below `offsets` only) and clears them. Where some of the 32 offsets do not exist, lanes
+// go through memory one by one: indexing a vector register by a variable would keep the
+// accumulators out of registers.
 [[gnu::always_inline]] inline void flushLanes(U8x32& acc, int first_lane_offset, int offsets, int* counts) {
   static_assert(kLanes == 32);
   if (first_lane_offset - (kLanes - 1) >= 0 && first_lane_offset < offsets) {
@@ -396,7 +398,6 @@ template <int N, int H>
   }
 }
 
-typedef std::int32_t I32x8 __attribute__((vector_size(32)));
 
 [[gnu::always_inline]] inline void rowExcessImpl(const int* counts, int median, int min_excess, int row,
                                                  const int* last_row, int n, int* excess, int* sum) {
