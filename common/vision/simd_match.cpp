@@ -398,7 +398,6 @@ template <int N, int H>
   }
 }
 
-
 [[gnu::always_inline]] inline void rowExcessImpl(const int* counts, int median, int min_excess, int row,
                                                  const int* last_row, int n, int* excess, int* sum) {
   const I32x8 vmed = I32x8{} + median;
