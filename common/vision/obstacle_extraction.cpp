@@ -650,6 +650,23 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       // object whose far outline lies beyond the histogram's border is cut at the border.)
       x0 = std::max(x0, cx.lo);
       x1 = std::min(x1, cx.hi);
+      // The flood misses the top of an object whose top cells hold less than the cell's matched
+      // share (a head against textured background): rows above it, within the row histogram's
+      // extent, join while they hold top_row_matches matches in the cluster's columns (with up
+      // to top_gap_rows rows without).
+      if (params_.top_row_matches > 0 && x1 >= x0) {
+        for (int y = y0 - 1, gap = 0; y >= cy.lo; --y) {
+          const std::uint8_t* mk = maskRow(candidate_masks_, remaining, right, y, x0, x1 + 1);
+          int n = 0;
+          for (int x = x0; x <= x1; ++x) n += mk[x] != 0 && inStripe(y, x) ? 1 : 0;
+          if (n >= params_.top_row_matches) {
+            y0 = y;
+            gap = 0;
+          } else if (++gap > params_.top_gap_rows) {
+            break;
+          }
+        }
+      }
       if (x1 < x0) {
         rejectCandidate(cv::Rect(cx.lo, cy.lo, cx.hi - cx.lo + 1, cy.hi - cy.lo + 1));
         continue;

@@ -69,6 +69,9 @@ struct ObstacleParams {
   int cell_px = 4;                  // side of the cells whose connected set is the cluster (0: histograms only)
   int cell_reach = 1;               // cells connect within this many cells of each other
   int min_cell_matches = 4;         // matched pixels of an active cell (a few rows of an outline)
+  int top_row_matches = 2;          // rows above the cells, within the row histogram's extent, join with
+                                    // this many matches in the cluster's columns (a head; 0: off) ...
+  int top_gap_rows = 2;             // ... with up to this many rows without between them
   double merge_overlap = 0.5;       // fraction of the smaller box inside an earlier obstacle at a close offset: merge
   // Plain faces (a wall, a box, a vehicle's side without texture) show features only along
   // their outline: the two sides come out as narrow obstacles at one offset. They are one
@@ -122,6 +125,9 @@ struct ObstacleParams {
     v.field("cell_px", cell_px, 0, 256, "pixels", "cell side of the cluster's connected extent (0: histograms)");
     v.field("cell_reach", cell_reach, 1, 16, "cells", "cells connect within this distance");
     v.field("min_cell_matches", min_cell_matches, 1, 65536, "pixels", "matched pixels of an active cell");
+    v.field("top_row_matches", top_row_matches, 0, 65536, "pixels",
+            "matches a row above the cells (within the row histogram's extent) needs to join the cluster; 0: off");
+    v.field("top_gap_rows", top_gap_rows, 0, 1000, "rows", "rows without matches tolerated above the cells");
     v.field("merge_overlap", merge_overlap, 0.0, 1.0, "", "overlap merging a cluster into an earlier one");
     v.field("trim_occluded_left", trim_occluded_left, 0, 1, "",
             "trim the band left of an obstacle that only the left camera sees");
