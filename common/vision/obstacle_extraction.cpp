@@ -59,6 +59,22 @@ int offsetBehind(const GroundProfile& ground, int y, int x) {
 // Share of features beside a plain gap, over the same rows, above which the surroundings are textured.
 constexpr double kPlainSurroundFraction = 0.2;
 
+// A renumbering of label values: map[v] is what label v becomes.
+using LabelMap = std::array<std::uint8_t, 256>;
+
+LabelMap unchangedLabels() {
+  LabelMap map{};
+  for (int v = 0; v < 256; ++v) map[static_cast<std::size_t>(v)] = static_cast<std::uint8_t>(v);
+  return map;
+}
+
+void relabel(cv::Mat& labels, const LabelMap& map) {
+  for (int y = 0; y < labels.rows; ++y) {
+    std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+    for (int c = 0; c < labels.cols; ++c) lab[c] = map[lab[c]];
+  }
+}
+
 double overlapOfSmaller(const cv::Rect& a, const cv::Rect& b) {
   const double inter = (a & b).area();
   const double smaller = std::min(a.area(), b.area());
@@ -929,8 +945,7 @@ void ObstacleExtractor::foldInto(std::size_t& i, const cv::Rect& reach, int d_lo
   const ObstacleCluster& a = obstacles[i];
   ObstacleCluster joined = a;
   joined.box |= reach;
-  std::array<std::uint8_t, 256> into{};  // old label -> the old label it ends up under
-  for (int v = 0; v < 256; ++v) into[static_cast<std::size_t>(v)] = static_cast<std::uint8_t>(v);
+  LabelMap into = unchangedLabels();  // old label -> the old label it ends up under
   std::vector<ObstacleCluster>& kept = kept_;
   kept.clear();
   for (std::size_t j = 0; j < obstacles.size(); ++j) {
@@ -947,7 +962,7 @@ void ObstacleExtractor::foldInto(std::size_t& i, const cv::Rect& reach, int d_lo
     }
   }
   // Renumber: the obstacles left keep their order, labels follow.
-  std::array<std::uint8_t, 256> renumbered = into;
+  LabelMap renumbered = into;
   for (std::size_t n = 0; n < kept.size(); ++n) {
     const int label = kLabelFirstObstacle + static_cast<int>(n);
     if (kept[n].label == a.label) {
@@ -959,36 +974,29 @@ void ObstacleExtractor::foldInto(std::size_t& i, const cv::Rect& reach, int d_lo
         renumbered[static_cast<std::size_t>(v)] = static_cast<std::uint8_t>(label);
     kept[n].label = label;
   }
-  for (int y = 0; y < labels.rows; ++y) {
-    std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
-    for (int c = 0; c < labels.cols; ++c) lab[c] = renumbered[lab[c]];
-  }
+  relabel(labels, renumbered);
   obstacles.assign(kept.begin(), kept.end());
 }
 
 int ObstacleExtractor::dropRemnants(cv::Mat& labels, std::vector<ObstacleCluster>& obstacles) {
   const int least = std::min(params_.min_cluster_features, params_.weak_cluster_features);
-  std::array<std::uint8_t, 256> relabel{};
-  for (int v = 0; v < 256; ++v) relabel[static_cast<std::size_t>(v)] = static_cast<std::uint8_t>(v);
+  LabelMap renumbered = unchangedLabels();
   std::size_t kept = 0;
   for (std::size_t i = 0; i < obstacles.size(); ++i) {
     ObstacleCluster& o = obstacles[i];
     const auto old_label = static_cast<std::size_t>(o.label);
     if (o.feature_count < least) {
-      relabel[old_label] = kLabelUnassigned;
+      renumbered[old_label] = kLabelUnassigned;
       continue;
     }
     o.label = kLabelFirstObstacle + static_cast<int>(kept);
-    relabel[old_label] = static_cast<std::uint8_t>(o.label);
+    renumbered[old_label] = static_cast<std::uint8_t>(o.label);
     obstacles[kept++] = o;
   }
   const int dropped = static_cast<int>(obstacles.size() - kept);
   if (dropped == 0) return 0;
   obstacles.resize(kept);
-  for (int y = 0; y < labels.rows; ++y) {
-    std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
-    for (int c = 0; c < labels.cols; ++c) lab[c] = relabel[lab[c]];
-  }
+  relabel(labels, renumbered);
   return dropped;
 }
 
