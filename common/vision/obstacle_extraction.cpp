@@ -618,47 +618,62 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
                       : kCellInactive;
         return c;
       };
-      // Seed: the strongest active cell inside the histogram box.
-      int seed = -1, seed_matched = 0;
+      // The cluster: of the connected sets of active cells (within cell_reach cells of each
+      // other) that reach into the histogram box, the one with the most matched pixels among
+      // those at least min_height_px tall (a shorter set cannot stand as an obstacle: an
+      // outline's top edge, a strip of texture), else among all. The strongest single cell can
+      // lie in a small set beside the object the histograms point at.
+      const int reach = params_.cell_reach;
+      struct Component {
+        int x0 = 0, y0 = 0, x1 = -1, y1 = -1;
+        float matched = 0.0f;
+      };
+      auto flood = [&](int seed, int id) {
+        Component comp{cols, rows, -1, -1, 0.0f};
+        flood_.clear();
+        flood_.push_back(seed);
+        cell_[static_cast<std::size_t>(seed)].component = id;
+        while (!flood_.empty()) {
+          const int k = flood_.back();
+          flood_.pop_back();
+          const Cell& c = cell_[static_cast<std::size_t>(k)];
+          comp.x0 = std::min(comp.x0, c.x0);
+          comp.x1 = std::max(comp.x1, c.x1);
+          comp.y0 = std::min(comp.y0, c.y0);
+          comp.y1 = std::max(comp.y1, c.y1);
+          comp.matched += static_cast<float>(c.matched);
+          const int ci = k % gw, cj = k / gw;
+          for (int j = std::max(0, cj - reach); j <= std::min(gh - 1, cj + reach); ++j)
+            for (int i = std::max(0, ci - reach); i <= std::min(gw - 1, ci + reach); ++i) {
+              Cell& n = cellAt(i, j);
+              if (n.state != kCellActive || n.component != 0) continue;
+              n.component = id;
+              flood_.push_back(j * gw + i);
+            }
+        }
+        return comp;
+      };
+      Component strongest, strongest_tall;
+      int components = 0;
       for (int j = y0 / cs; j <= std::min(y1 / cs, gh - 1); ++j)
         for (int i = x0 / cs; i <= x1 / cs; ++i) {
           const Cell& c = cellAt(i, j);
-          if (c.state == kCellActive && c.matched > seed_matched) {
-            seed_matched = c.matched;
-            seed = j * gw + i;
-          }
+          if (c.state != kCellActive || c.component != 0) continue;
+          const Component comp = flood(j * gw + i, ++components);
+          if (comp.matched > strongest.matched) strongest = comp;
+          if (comp.y1 - comp.y0 + 1 >= params_.min_height_px && comp.matched > strongest_tall.matched)
+            strongest_tall = comp;
         }
-      if (seed < 0) {
+      if (components == 0) {
         rejectCandidate(cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1));
         continue;
       }
-      // Flood over active cells within cell_reach cells of each other.
-      const int reach = params_.cell_reach;
-      x0 = cols;
-      y0 = rows;
-      x1 = -1;
-      y1 = -1;
-      flood_.clear();
-      flood_.push_back(seed);
-      cell_[static_cast<std::size_t>(seed)].in_cluster = true;
-      while (!flood_.empty()) {
-        const int k = flood_.back();
-        flood_.pop_back();
-        const Cell& c = cell_[static_cast<std::size_t>(k)];
-        x0 = std::min(x0, c.x0);
-        x1 = std::max(x1, c.x1);
-        y0 = std::min(y0, c.y0);
-        y1 = std::max(y1, c.y1);
-        cluster_matches += static_cast<float>(c.matched);
-        const int ci = k % gw, cj = k / gw;
-        for (int j = std::max(0, cj - reach); j <= std::min(gh - 1, cj + reach); ++j)
-          for (int i = std::max(0, ci - reach); i <= std::min(gw - 1, ci + reach); ++i) {
-            Cell& n = cellAt(i, j);
-            if (n.state != kCellActive || n.in_cluster) continue;
-            n.in_cluster = true;
-            flood_.push_back(j * gw + i);
-          }
-      }
+      const Component& chosen = strongest_tall.x1 >= 0 ? strongest_tall : strongest;
+      x0 = chosen.x0;
+      y0 = chosen.y0;
+      x1 = chosen.x1;
+      y1 = chosen.y1;
+      cluster_matches = chosen.matched;
       // The columns stay within the histogram's lateral borders. Beside an object the flood
       // reaches cells of chance matches: left of it in the band the right camera cannot see
       // (as wide as its offset minus the offset behind it), and streaked texture on either
@@ -845,6 +860,30 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     }
     const cv::Rect box = verdict.box;
     const bool floating = verdict.floating, unmatched = verdict.unmatched, significant = verdict.significant;
+    // A floating cluster resting on an earlier obstacle at its offset (a person's upper body
+    // found after the legs) is a part of it.
+    ObstacleCluster* below = nullptr;
+    if (floating && !unmatched) {
+      const double allowed = std::max(static_cast<double>(params_.contact_tolerance_px),
+                                      params_.contact_tolerance_fraction * box.height);
+      for (ObstacleCluster& earlier : obstacles) {
+        if (best < earlier.min_offset_px - tol - 1 || best > earlier.max_offset_px + tol + 1) continue;
+        const int overlap =
+            std::min(box.x + box.width, earlier.box.x + earlier.box.width) - std::max(box.x, earlier.box.x);
+        if (overlap >= params_.merge_overlap * std::min(box.width, earlier.box.width) &&
+            earlier.box.y >= box.y && earlier.box.y <= box.y + box.height - 1 + allowed) {
+          below = &earlier;
+          break;
+        }
+      }
+    }
+    if (below) {
+      below->feature_count += sweepBox(box, below->label, true);
+      below->box |= box;
+      below->min_offset_px = std::min(below->min_offset_px, dmin);
+      below->max_offset_px = std::max(below->max_offset_px, dmax);
+      continue;
+    }
     if (floating || unmatched || !significant || box.height < params_.min_height_px || box.width < params_.min_width_px) {
       rejectCandidate(cv::Rect(cx.lo, cy.lo, cx.hi - cx.lo + 1, cy.hi - cy.lo + 1) | box);
       continue;

@@ -11,7 +11,8 @@
 //
 // Beyond the paper:
 //  - the histograms only locate the cluster: its extent is the connected set of
-//    cell_px cells matching at d*, grown from the strongest one in that place;
+//    cell_px cells matching at d* (of the connected sets reaching into the histograms'
+//    box, the one with the most matches among those tall enough to stand);
 //  - obstacles stand on the ground: only rows above the ground contact row of
 //    d* (the row where the ground offset equals d*) count; a cluster floating
 //    far above the last row it could show in is rejected; the box bottom is the
@@ -19,7 +20,8 @@
 //  - long walls receding in depth grow over neighbouring offsets whose
 //    matched features continue the cluster sideways, so they come out as one
 //    obstacle spanning [min_offset_px, max_offset_px] instead of slices;
-//  - a cluster at the offset of an earlier one and overlapping it is merged;
+//  - a cluster at the offset of an earlier one and overlapping it is merged, and so is
+//    a floating one resting on it (a person's upper body found after the legs);
 //  - below the obstacle thresholds, a weaker cluster is still kept when its box at d*
 //    has a person's size in metres (far people show only a few dozen rows);
 //  - after the loop, a left-right test trims the band left of each obstacle that only the
@@ -276,7 +278,7 @@ class ObstacleExtractor {
   static constexpr std::uint8_t kCellUnknown = 0, kCellInactive = 1, kCellActive = 2;
   struct Cell {
     std::uint8_t state = kCellUnknown;
-    bool in_cluster = false;
+    int component = 0;  // connected set it belongs to (0: none yet)
     int matched = 0;
     int x0 = 0, y0 = 0, x1 = -1, y1 = -1;  // bounding box of the matched pixels
   };
