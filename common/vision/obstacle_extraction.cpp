@@ -196,7 +196,8 @@ void ObstacleExtractor::offsetHistogram(const cv::Mat& matches, const GroundProf
   hist_limit_.resize(static_cast<std::size_t>(offsets));
   for (int d = 0; d < offsets; ++d) {
     const bool skip =
-        (!fast_ && banned_[static_cast<std::size_t>(d)]) || d <= background + params_.background_margin_px;
+        (!fast_ && banned_[static_cast<std::size_t>(d)]) || d <= background + params_.background_margin_px ||
+        d < nearest_offset_;
     hist_limit_[static_cast<std::size_t>(d)] = skip ? -1 : rowLimit(d);
   }
   const int* lim = hist_limit_.data();
@@ -325,7 +326,7 @@ ObstacleExtractor::Extent ObstacleExtractor::extent(const std::vector<float>& hi
 void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const GroundProfile& ground,
                                 Correlator& correlator, cv::Mat& score, cv::Mat& matches,
                                 std::vector<std::uint8_t>& changed_rows, cv::Mat& labels,
-                                std::vector<ObstacleCluster>& obstacles, double baseline_m) {
+                                std::vector<ObstacleCluster>& obstacles, double baseline_m, double focal_px) {
   if (remaining.type() != CV_8UC1 || right.type() != CV_8UC1 || remaining.size() != right.size() ||
       labels.size() != remaining.size() || labels.type() != CV_8UC1)
     throw InputError("obstacles: feature and label images must be mono8 of the same size");
@@ -335,6 +336,9 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   const int tol = params_.offset_tolerance_px;
   const int half = params_.match_half_window_px;
   obstacles.clear();
+  nearest_offset_ = params_.max_range_m > 0.0 && baseline_m > 0.0 && focal_px > 0.0
+                        ? focal_px * baseline_m / params_.max_range_m
+                        : 0.0;
   banned_.assign(static_cast<std::size_t>(offsets), 0);
   row_median_.assign(static_cast<std::size_t>(rows), 0);
   median_stale_.assign(static_cast<std::size_t>(rows), 1);

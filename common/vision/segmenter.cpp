@@ -82,7 +82,7 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
   t = Clock::now();
   out.correlation_after_removal.copyTo(obstacle_score_);
   obstacles_.compute(remaining_, right_features, out.ground, correlator_, obstacle_score_, matches_, changed_rows_,
-                     out.labels, out.obstacles, rig.baseline_m);
+                     out.labels, out.obstacles, rig.baseline_m, rig.focal_px);
   obstacles_.trimOccludedLeft(left_features, right_features, out.ground, out.labels, out.obstacles);
   obstacles_.joinPlainFaces(left_features, right_features, out.ground, out.labels, out.obstacles,
                             rig.baseline_m);

@@ -47,6 +47,7 @@ int main(int argc, char** argv) {
     if (const char* v = std::getenv("UNGROWN")) sgp.obstacles.ungrown_retry = std::atoi(v) != 0;
     if (const char* v = std::getenv("PLAIN")) sgp.obstacles.join_plain_faces = std::atoi(v) != 0;
     if (const char* v = std::getenv("TRIM")) sgp.obstacles.trim_occluded_left = std::atoi(v) != 0;
+    if (const char* v = std::getenv("RANGE")) sgp.obstacles.max_range_m = std::atof(v);
     Segmenter seg(sgp);
     SegmentationResult r;
     segmentPair(fx, seg, pair.left, pair.right, pair.rig, r);
