@@ -287,6 +287,46 @@ TEST(SyntheticObstacles, PersonBesideAStrongerBlobIsFoundWhole) {
   EXPECT_EQ(checked, 1);
 }
 
+// Obstacles beyond max_range_m are not searched: with a 20 m range a textured block 28 m away is
+// not found and one 12 m away is; without the limit both are, and no obstacle comes out nearer
+// than the range allows.
+TEST(SyntheticObstacles, ObstaclesBeyondTheRangeAreNotSearched) {
+  SyntheticSceneParams p;
+  SyntheticObstacle near_block, far_block;
+  near_block.x_m = -3.0;
+  near_block.z_m = 12.0;
+  near_block.height_m = 1.5;
+  near_block.texture_seed = 7;
+  far_block.x_m = 6.0;
+  far_block.z_m = 28.0;
+  far_block.height_m = 1.5;
+  far_block.texture_seed = 8;
+  p.obstacles = {near_block, far_block};
+  const StereoPair pair = renderSyntheticScene(p, 3);
+  const SceneTruth& t = *pair.truth;
+  const double fb = pair.rig.focal_px * pair.rig.baseline_m;
+  SegmenterParams unlimited, range20;
+  unlimited.obstacles.max_range_m = 0.0;
+  range20.obstacles.max_range_m = 20.0;
+  const SegmentationResult limited = segment(pair, range20), all = segment(pair, unlimited);
+  ASSERT_EQ(t.objects.size(), 2u);
+  auto found = [&](const SegmentationResult& r, std::size_t k) {
+    const ObjectLabel& o = t.objects[k];
+    const cv::Rect box(cv::Point(static_cast<int>(o.box[0]), static_cast<int>(o.box[1])),
+                       cv::Point(static_cast<int>(o.box[2]) + 1, static_cast<int>(o.box[3]) + 1));
+    const test::DisparitySpread surface = test::visibleDisparities(t.disparity, t.object_id, k);
+    for (const ObstacleCluster& c : r.obstacles)
+      if (test::clusterFindsObject(c, box, fb / o.location_m[2], surface)) return true;
+    return false;
+  };
+  EXPECT_TRUE(found(limited, 0));
+  EXPECT_TRUE(found(all, 0));
+  EXPECT_TRUE(found(all, 1));
+  EXPECT_FALSE(found(limited, 1));
+  // A cluster's offset is its histogram peak, at least fb / 20 (the +-1 tolerance reaches one below).
+  for (const ObstacleCluster& c : limited.obstacles) EXPECT_GE(c.offset_px, fb / 20.0);
+}
+
 TEST(SyntheticObstacles, RecedingWallIsOneObstacle) {
   int walls = 0, joined = 0, without = 0;
   for (int k = 0; k < 12; ++k) {
