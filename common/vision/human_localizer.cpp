@@ -315,8 +315,22 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& r
   local.clear();
   extended_.clear();
   const auto& fp = params_.filters;
+  // A cluster none of whose candidates reaches min_symmetry (a person seen from the side: a
+  // profile is not mirror-symmetric) still sends its most symmetric one to validation.
+  const SymmetryCandidate* fallback = nullptr;
+  if (cp.validate_best_asymmetric) {
+    bool any = false;
+    for (const auto& c : sym_scratch_) {
+      if (static_cast<double>(c.edge_density) < fp.min_edge_density ||
+          static_cast<double>(c.grey_stddev) < fp.min_grey_stddev)
+        continue;
+      if (static_cast<double>(c.score) >= cp.min_symmetry) any = true;
+      else if (!fallback || c.score > fallback->score) fallback = &c;
+    }
+    if (any) fallback = nullptr;
+  }
   for (const auto& c : sym_scratch_) {
-    if (static_cast<double>(c.score) < cp.min_symmetry) continue;
+    if (static_cast<double>(c.score) < cp.min_symmetry && &c != fallback) continue;
     if (static_cast<double>(c.edge_density) < fp.min_edge_density) continue;   // too few edges
     if (static_cast<double>(c.grey_stddev) < fp.min_grey_stddev) continue;      // uniform texture
     // The symmetric core is often the torso only: grow the sides to the

@@ -43,7 +43,8 @@ struct CandidateParams {
   double region_margin = 0.25;    // search region = cluster box grown by this share of the person width range
   int min_height_px = 16;         // smaller boxes cannot be validated
   int max_per_cluster = 4;        // candidates kept per cluster after suppression
-  double min_symmetry = 0.12;     // symmetry score below which a candidate is dropped
+  double min_symmetry = 0.12;     // symmetry score below which a candidate is dropped ...
+  bool validate_best_asymmetric = true;  // ... unless it is the best of a cluster that has none above
   double extent_min_edge_share = 0.15;  // a column belongs to the object when its edge weight >= this x box height
   int extent_gap_px = 2;          // edge-free columns tolerated when growing a box to the object's extent
 
@@ -59,6 +60,8 @@ struct CandidateParams {
     v.field("min_height_px", min_height_px, 4, 1000, "pixels", "smallest box height kept");
     v.field("max_per_cluster", max_per_cluster, 1, 32, "", "candidates kept per cluster");
     v.field("min_symmetry", min_symmetry, 0.0, 1.0, "", "smallest symmetry score kept");
+    v.field("validate_best_asymmetric", validate_best_asymmetric, 0, 1, "",
+            "a cluster without a candidate above min_symmetry validates its most symmetric one (side views)");
     v.field("extent_min_edge_share", extent_min_edge_share, 0.0, 1.0, "",
             "column edge weight (share of the box height) that extends a box sideways");
     v.field("extent_gap_px", extent_gap_px, 0, 50, "pixels", "edge-free columns tolerated when extending a box");
