@@ -864,6 +864,16 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     }
     const cv::Rect box = verdict.box;
     const bool floating = verdict.floating, unmatched = verdict.unmatched, significant = verdict.significant;
+    // An earlier obstacle at this offset that the cluster is a part of takes it in.
+    auto atOffsetOf = [&](const ObstacleCluster& earlier) {
+      return best >= earlier.min_offset_px - tol - 1 && best <= earlier.max_offset_px + tol + 1;
+    };
+    auto absorbInto = [&](ObstacleCluster& earlier) {
+      earlier.feature_count += sweepBox(box, earlier.label, true);
+      earlier.box |= box;
+      earlier.min_offset_px = std::min(earlier.min_offset_px, dmin);
+      earlier.max_offset_px = std::max(earlier.max_offset_px, dmax);
+    };
     // A floating cluster resting on an earlier obstacle at its offset (a person's upper body
     // found after the legs) is a part of it.
     ObstacleCluster* below = nullptr;
@@ -871,7 +881,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       const double allowed = std::max(static_cast<double>(params_.contact_tolerance_px),
                                       params_.contact_tolerance_fraction * box.height);
       for (ObstacleCluster& earlier : obstacles) {
-        if (best < earlier.min_offset_px - tol - 1 || best > earlier.max_offset_px + tol + 1) continue;
+        if (!atOffsetOf(earlier)) continue;
         const int overlap =
             std::min(box.x + box.width, earlier.box.x + earlier.box.width) - std::max(box.x, earlier.box.x);
         if (overlap >= params_.merge_overlap * std::min(box.width, earlier.box.width) &&
@@ -882,10 +892,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       }
     }
     if (below) {
-      below->feature_count += sweepBox(box, below->label, true);
-      below->box |= box;
-      below->min_offset_px = std::min(below->min_offset_px, dmin);
-      below->max_offset_px = std::max(below->max_offset_px, dmax);
+      absorbInto(*below);
       continue;
     }
     if (floating || unmatched || !significant || box.height < params_.min_height_px || box.width < params_.min_width_px) {
@@ -896,17 +903,13 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     // A cluster at the offset of an earlier obstacle and inside it is a part of it.
     ObstacleCluster* merged = nullptr;
     for (ObstacleCluster& earlier : obstacles) {
-      if (best >= earlier.min_offset_px - tol - 1 && best <= earlier.max_offset_px + tol + 1 &&
-          overlapOfSmaller(earlier.box, box) >= params_.merge_overlap) {
+      if (atOffsetOf(earlier) && overlapOfSmaller(earlier.box, box) >= params_.merge_overlap) {
         merged = &earlier;
         break;
       }
     }
     if (merged) {
-      merged->feature_count += sweepBox(box, merged->label, true);
-      merged->box |= box;
-      merged->min_offset_px = std::min(merged->min_offset_px, dmin);
-      merged->max_offset_px = std::max(merged->max_offset_px, dmax);
+      absorbInto(*merged);
       continue;
     }
     ObstacleCluster cluster;
