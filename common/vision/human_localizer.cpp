@@ -315,15 +315,17 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& r
   local.clear();
   extended_.clear();
   const auto& fp = params_.filters;
+  auto textured = [&](const SymmetryCandidate& c) {
+    return static_cast<double>(c.edge_density) >= fp.min_edge_density &&  // else too few edges
+           static_cast<double>(c.grey_stddev) >= fp.min_grey_stddev;      // else uniform texture
+  };
   // A cluster none of whose candidates reaches min_symmetry (a person seen from the side: a
   // profile is not mirror-symmetric) still sends its most symmetric one to validation.
   const SymmetryCandidate* fallback = nullptr;
   if (cp.validate_best_asymmetric) {
     bool any = false;
     for (const auto& c : sym_scratch_) {
-      if (static_cast<double>(c.edge_density) < fp.min_edge_density ||
-          static_cast<double>(c.grey_stddev) < fp.min_grey_stddev)
-        continue;
+      if (!textured(c)) continue;
       if (static_cast<double>(c.score) >= cp.min_symmetry) any = true;
       else if (!fallback || c.score > fallback->score) fallback = &c;
     }
@@ -331,8 +333,7 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& r
   }
   for (const auto& c : sym_scratch_) {
     if (static_cast<double>(c.score) < cp.min_symmetry && &c != fallback) continue;
-    if (static_cast<double>(c.edge_density) < fp.min_edge_density) continue;   // too few edges
-    if (static_cast<double>(c.grey_stddev) < fp.min_grey_stddev) continue;      // uniform texture
+    if (!textured(c)) continue;
     // The symmetric core is often the torso only: grow the sides to the
     // object's edge extent (arms, a walking stance), within the width limit.
     const int max_half = search.max_half_width_px;

@@ -371,6 +371,20 @@ template <int N, int H>
   });
 }
 
+// windowGroup for n (1..kWindowGroup) offsets at d, half width H (see windowGroup).
+template <int H>
+[[gnu::always_inline]] inline void windowGroupOf(int n, const std::uint8_t* left, const std::uint8_t* right,
+                                                 int width, int x0, int x1, int d, int tol, int half,
+                                                 std::uint8_t* scratch, std::uint8_t* out) {
+  static_assert(kWindowGroup == 4);
+  switch (n) {
+    case 1: windowGroup<1, H>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
+    case 2: windowGroup<2, H>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
+    case 3: windowGroup<3, H>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
+    default: windowGroup<4, H>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
+  }
+}
+
 [[gnu::always_inline]] inline void windowMatchImpl(const std::uint8_t* left, const std::uint8_t* right, int width,
                                                    int x0, int x1, int d0, int d1, int tol, int half,
                                                    std::uint8_t* scratch, std::uint8_t* out) {
@@ -378,23 +392,10 @@ template <int N, int H>
   std::memset(out + x0, 0, static_cast<std::size_t>(x1 - x0));
   const int dlast = std::min(d1, x1 - 1);
   for (int d = std::max(d0, 0); d <= dlast; d += kWindowGroup) {
-    static_assert(kWindowGroup == 4);
     const int n = std::min(kWindowGroup, dlast - d + 1);
-    if (half == 1) {  // the default window: its loops unrolled
-      switch (n) {
-        case 1: windowGroup<1, 1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
-        case 2: windowGroup<2, 1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
-        case 3: windowGroup<3, 1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
-        default: windowGroup<4, 1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
-      }
-    } else {
-      switch (n) {
-        case 1: windowGroup<1, -1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
-        case 2: windowGroup<2, -1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
-        case 3: windowGroup<3, -1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
-        default: windowGroup<4, -1>(left, right, width, x0, x1, d, tol, half, scratch, out); break;
-      }
-    }
+    // The default window (half width 1) has its loops unrolled.
+    if (half == 1) windowGroupOf<1>(n, left, right, width, x0, x1, d, tol, half, scratch, out);
+    else windowGroupOf<-1>(n, left, right, width, x0, x1, d, tol, half, scratch, out);
   }
 }
 
