@@ -6,8 +6,8 @@
 //
 // KNOWN SHORTFALL: the recall target is not met yet. Measured on seeds
 // 1000-1099 (all targets, DISABLED_ test below, ~3 min, mostly rendering):
-// recall 0.714 at <= 0.2 FP/frame (AP40 0.676), median |dZ|/Z 0.0050 (p90 0.0148),
-// box-bottom error median 0.70 px (p90 2.02). Most misses have no obstacle
+// recall 0.741 at <= 0.2 FP/frame (AP40 0.701), median |dZ|/Z 0.0049 (p90 0.0141),
+// box-bottom error median 0.67 px (p90 1.99). Most misses have no obstacle
 // cluster around the person or a box below IoU 0.5 (docs/evaluation.md).
 // The test is disabled, not loosened; run it with --gtest_also_run_disabled_tests.
 // The enabled test checks the distance and feet-row targets on 12 seeds.
@@ -94,12 +94,9 @@ TEST(SyntheticStatistics, SideViewWithoutASymmetricCandidateStillGetsABox) {
     for (const ObjectLabel& l : run.pair.labels) {
       if (l.type != "Pedestrian" || std::abs(l.location_m[2] - 7.1) > 0.1) continue;
       ++people;
-      const cv::Rect2d truth(l.box[0], l.box[1], l.box[2] - l.box[0], l.box[3] - l.box[1]);
-      for (const HumanDetection& h : run.result.humans) {
-        const cv::Rect2d b(h.box);
-        const double inter = (truth & b).area();
-        best = std::max(best, inter / (truth.area() + b.area() - inter));
-      }
+      const cv::Rect2f truth(cv::Point2f(static_cast<float>(l.box[0]), static_cast<float>(l.box[1])),
+                             cv::Point2f(static_cast<float>(l.box[2]), static_cast<float>(l.box[3])));
+      for (const HumanDetection& h : run.result.humans) best = std::max(best, boxIoU(truth, h.box));
     }
     EXPECT_EQ(people, 1);
     return best;
