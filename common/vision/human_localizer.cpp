@@ -246,7 +246,7 @@ double HumanLocalizer::foreignShare(const SegmentationResult& segmentation, cons
   return own + other > 0 ? static_cast<double>(other) / (own + other) : 0.0;
 }
 
-void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& rig,
+void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
                                          const SegmentationResult& segmentation, const ObstacleCluster& cluster,
                                          std::vector<HumanDetection>& out, bool reference) {
   const auto& cp = params_.candidates;
@@ -331,6 +331,42 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& r
     }
     if (any) fallback = nullptr;
   }
+  // A walking person's legs are thin and slanted: their matches fall short of the obstacle
+  // cells and stay unassigned beside the cluster. When a box is extended sideways, the
+  // unassigned features that match the right image at the cluster's offset (+-1) weigh as
+  // the cluster's edges do.
+  const bool extendUnassigned = cp.extent_unassigned_matches && labelled;
+  auto extentMatch = [&](int y, int x) {  // region coordinates
+    const int iy = roi.y + y, ix = roi.x + x;
+    if (segmentation.labels.ptr<std::uint8_t>(iy)[ix] != kLabelUnassigned) return false;
+    const int a = left.ptr<std::uint8_t>(iy)[ix];
+    const std::uint8_t* r = right.ptr<std::uint8_t>(iy);
+    for (int dd = cluster.offset_px - 1; dd <= cluster.offset_px + 1; ++dd) {
+      const int xr = ix - dd;
+      if (xr >= 0 && xr < right.cols && std::abs(a - static_cast<int>(r[xr])) <= cp.extent_grey_tolerance) return true;
+    }
+    return false;
+  };
+  auto pixelWeight = [&](int y, int x) {
+    return extendUnassigned && extentMatch(y, x) ? scanner_.edgeWeightAt(left, roi.y + y, roi.x + x)
+                                                 : region_weights_.at<float>(y, x);
+  };
+  // Candidates share the bottom row: a column's weight from every row down to it is summed
+  // once, on the column's first use. (The sums are exact in double: at most a few hundred
+  // weights, each a float of at least outside_cluster_edge_weight / 3, so any order gives
+  // the same value.)
+  const int table_rows = std::max(0, search.bottom_row + 1);
+  column_sums_.resize(static_cast<std::size_t>(table_rows + 1) * static_cast<std::size_t>(roi.width));
+  column_ready_.assign(static_cast<std::size_t>(roi.width), 0);
+  auto columnFrom = [&](int x) -> const double* {
+    double* t = column_sums_.data() + static_cast<std::size_t>(x) * static_cast<std::size_t>(table_rows + 1);
+    if (!column_ready_[static_cast<std::size_t>(x)]) {
+      t[table_rows] = 0.0;
+      for (int y = table_rows - 1; y >= 0; --y) t[y] = t[y + 1] + static_cast<double>(pixelWeight(y, x));
+      column_ready_[static_cast<std::size_t>(x)] = 1;
+    }
+    return t;
+  };
   for (const auto& c : sym_scratch_) {
     if (static_cast<double>(c.score) < cp.min_symmetry && &c != fallback) continue;
     if (!textured(c)) continue;
@@ -340,8 +376,9 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const StereoRig& r
     const int bottom_rel = c.box.y + c.box.height - 1;
     const double min_col_weight = cp.extent_min_edge_share * c.box.height;
     auto columnWeight = [&](int x) {
+      if (bottom_rel == search.bottom_row) return columnFrom(x)[c.box.y];
       double sum = 0.0;
-      for (int y = c.box.y; y <= bottom_rel; ++y) sum += static_cast<double>(region_weights_.at<float>(y, x));
+      for (int y = c.box.y; y <= bottom_rel; ++y) sum += static_cast<double>(pixelWeight(y, x));
       return sum;
     };
     int x_left = c.box.x;
@@ -661,7 +698,7 @@ void HumanLocalizer::computeImpl(const cv::Mat& left, const cv::Mat& right, cons
     throw InputError("localizer: rig focal_px and baseline_m must be positive");
   }
   candidates_.clear();
-  for (const auto& cluster : segmentation.obstacles) candidatesInCluster(left, rig, segmentation, cluster, candidates_, reference);
+  for (const auto& cluster : segmentation.obstacles) candidatesInCluster(left, right, rig, segmentation, cluster, candidates_, reference);
   // Duplicates are suppressed after scoring, so that the better-framed of two overlapping boxes wins.
 
   // Steps 3-5 for every candidate; band b takes candidates b, b + bands, ...

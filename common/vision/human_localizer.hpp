@@ -47,6 +47,8 @@ struct CandidateParams {
   bool validate_best_asymmetric = true;  // ... unless it is the best of a cluster that has none above
   double extent_min_edge_share = 0.15;  // a column belongs to the object when its edge weight >= this x box height
   int extent_gap_px = 2;          // edge-free columns tolerated when growing a box to the object's extent
+  bool extent_unassigned_matches = true;  // unassigned features matching at the cluster's offset extend it
+  int extent_grey_tolerance = 12;  // grey levels of that match (as the segmentation's)
 
   template <class V>
   void visit(V& v) {
@@ -65,6 +67,11 @@ struct CandidateParams {
     v.field("extent_min_edge_share", extent_min_edge_share, 0.0, 1.0, "",
             "column edge weight (share of the box height) that extends a box sideways");
     v.field("extent_gap_px", extent_gap_px, 0, 50, "pixels", "edge-free columns tolerated when extending a box");
+    v.field("extent_unassigned_matches", extent_unassigned_matches, 0, 1, "",
+            "features left unassigned that match the right image at the cluster's offset count as the cluster's "
+            "when a box is extended sideways (a walking person's legs)");
+    v.field("extent_grey_tolerance", extent_grey_tolerance, 0, 255, "grey levels",
+            "grey difference of that match");
   }
 };
 
@@ -248,7 +255,7 @@ class HumanLocalizer {
                          const SegmentationResult& segmentation, HumanDetection& h, bool reference) const;
   void computeImpl(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
                    const SegmentationResult& segmentation, std::vector<HumanDetection>& out, bool reference);
-  void candidatesInCluster(const cv::Mat& left, const StereoRig& rig, const SegmentationResult& segmentation,
+  void candidatesInCluster(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig, const SegmentationResult& segmentation,
                            const ObstacleCluster& cluster, std::vector<HumanDetection>& out, bool reference);
   double foreignShare(const SegmentationResult& segmentation, const cv::Rect& box, int own_label) const;
 
@@ -264,6 +271,8 @@ class HumanLocalizer {
   std::vector<BoxWorkspace> workspaces_;  // workspace 0 also serves the reference and the public steps
   // Storage behind the per-region headers of the fast path; it only grows.
   std::vector<double> region_mask_store_, region_weights_store_;
+  std::vector<double> column_sums_;  // per region column: edge weight from each row down to the candidates' bottom
+  std::vector<std::uint8_t> column_ready_;
 };
 
 // Greedy non-maximum suppression by score (keeps the higher score of two

@@ -129,6 +129,19 @@ void SymmetryScanner::edgeWeights(const cv::Mat& grey, const cv::Mat& cluster_ma
   }
 }
 
+float SymmetryScanner::edgeWeightAt(const cv::Mat& image, int y, int x) const {
+  auto reflect = [](int i, int n) { return n == 1 ? 0 : i < 0 ? -i : i >= n ? 2 * n - 2 - i : i; };
+  const std::uint8_t* up = image.ptr<std::uint8_t>(reflect(y - 1, image.rows));
+  const std::uint8_t* mid = image.ptr<std::uint8_t>(y);
+  const std::uint8_t* down = image.ptr<std::uint8_t>(reflect(y + 1, image.rows));
+  const int cl = reflect(x - 1, image.cols), cr = reflect(x + 1, image.cols);
+  const int gx = (up[cr] + 2 * mid[cr] + down[cr]) - (up[cl] + 2 * mid[cl] + down[cl]);
+  const int gy = (down[cl] + 2 * down[x] + down[cr]) - (up[cl] + 2 * up[x] + up[cr]);
+  const int mag = std::abs(gx) + std::abs(gy);
+  const float inv_full = 1.0f / (params_.full_weight_ratio * static_cast<float>(params_.edge_threshold));
+  return mag < params_.edge_threshold ? 0.0f : std::min(1.0f, static_cast<float>(mag) * inv_full);
+}
+
 cv::Mat SymmetryScanner::scratch(std::vector<double>& storage, int rows, int cols, int type) {
   const std::size_t bytes = static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols) * CV_ELEM_SIZE(type);
   const std::size_t words = (bytes + sizeof(double) - 1) / sizeof(double);

@@ -92,6 +92,9 @@ class SymmetryScanner {
   void edgeWeights(const cv::Mat& grey, const cv::Mat& cluster_mask, cv::Mat& weights) const;
   // Same with cv::Sobel, the reference of edgeWeights(); bit-identical.
   void edgeWeightsReference(const cv::Mat& grey, const cv::Mat& cluster_mask, cv::Mat& weights) const;
+  // The weight edgeWeights() gives pixel (y, x) of `image` (CV_8UC1, not a region) inside
+  // the cluster: the same Sobel, reflected at the image border, and the same ramp.
+  float edgeWeightAt(const cv::Mat& image, int y, int x) const;
 
   // Every axis/width of `search` whose box fits the height and aspect limits,
   // best-scoring width per axis. `grey` CV_8U and `weights` CV_32F, same size.

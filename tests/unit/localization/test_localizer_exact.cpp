@@ -136,6 +136,17 @@ TEST(LocalizerExact, EdgeWeightsMatchCvSobel) {
     scanner.edgeWeightsReference(g, cv::Mat(), ref);
     ASSERT_TRUE(test::sameBits(fast, ref));
   }
+  // One pixel at a time (the sideways extension's lookups): the same bits at every pixel of
+  // the whole image and of the 1-row and 1-column images.
+  for (const cv::Mat& g : {img, row, col}) {
+    cv::Mat ref;
+    scanner.edgeWeightsReference(g, cv::Mat(), ref);
+    for (int y = 0; y < g.rows; ++y)
+      for (int x = 0; x < g.cols; ++x) {
+        const float at = scanner.edgeWeightAt(g, y, x);
+        ASSERT_EQ(std::memcmp(&at, &ref.at<float>(y, x), sizeof(float)), 0) << "pixel " << x << "," << y;
+      }
+  }
 }
 
 TEST(LocalizerExact, InPlaceSuppressionMatchesTheReference) {
