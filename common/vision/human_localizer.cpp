@@ -335,7 +335,7 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
   // cells and stay unassigned beside the cluster. When a box is extended sideways, the
   // unassigned features that match the right image at the cluster's offset (+-1) weigh as
   // the cluster's edges do.
-  const bool extendUnassigned = cp.extent_unassigned_matches && labelled;
+  const bool extend_unassigned = cp.extent_unassigned_matches && labelled;
   auto extentMatch = [&](int y, int x) {  // region coordinates
     const int iy = roi.y + y, ix = roi.x + x;
     if (segmentation.labels.ptr<std::uint8_t>(iy)[ix] != kLabelUnassigned) return false;
@@ -343,12 +343,13 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
     const std::uint8_t* r = right.ptr<std::uint8_t>(iy);
     for (int dd = cluster.offset_px - 1; dd <= cluster.offset_px + 1; ++dd) {
       const int xr = ix - dd;
-      if (xr >= 0 && xr < right.cols && std::abs(a - static_cast<int>(r[xr])) <= cp.extent_grey_tolerance) return true;
+      if (xr >= 0 && xr < right.cols && std::abs(a - static_cast<int>(r[xr])) <= cp.extent_grey_tolerance)
+        return true;
     }
     return false;
   };
   auto pixelWeight = [&](int y, int x) {
-    return extendUnassigned && extentMatch(y, x) ? scanner_.edgeWeightAt(left, roi.y + y, roi.x + x)
+    return extend_unassigned && extentMatch(y, x) ? scanner_.edgeWeightAt(left, roi.y + y, roi.x + x)
                                                  : region_weights_.at<float>(y, x);
   };
   // Candidates share the bottom row: a column's weight from every row down to it is summed
@@ -698,7 +699,8 @@ void HumanLocalizer::computeImpl(const cv::Mat& left, const cv::Mat& right, cons
     throw InputError("localizer: rig focal_px and baseline_m must be positive");
   }
   candidates_.clear();
-  for (const auto& cluster : segmentation.obstacles) candidatesInCluster(left, right, rig, segmentation, cluster, candidates_, reference);
+  for (const auto& cluster : segmentation.obstacles)
+    candidatesInCluster(left, right, rig, segmentation, cluster, candidates_, reference);
   // Duplicates are suppressed after scoring, so that the better-framed of two overlapping boxes wins.
 
   // Steps 3-5 for every candidate; band b takes candidates b, b + bands, ...

@@ -255,8 +255,9 @@ class HumanLocalizer {
                          const SegmentationResult& segmentation, HumanDetection& h, bool reference) const;
   void computeImpl(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
                    const SegmentationResult& segmentation, std::vector<HumanDetection>& out, bool reference);
-  void candidatesInCluster(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig, const SegmentationResult& segmentation,
-                           const ObstacleCluster& cluster, std::vector<HumanDetection>& out, bool reference);
+  void candidatesInCluster(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
+                           const SegmentationResult& segmentation, const ObstacleCluster& cluster,
+                           std::vector<HumanDetection>& out, bool reference);
   double foreignShare(const SegmentationResult& segmentation, const cv::Rect& box, int own_label) const;
 
   LocalizerParams params_;
