@@ -348,22 +348,22 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
     }
     return false;
   };
-  auto pixelWeight = [&](int y, int x) {
-    return extend_unassigned && extentMatch(y, x) ? scanner_.edgeWeightAt(left, roi.y + y, roi.x + x)
-                                                 : region_weights_.at<float>(y, x);
-  };
-  // Candidates share the bottom row: a column's weight from every row down to it is summed
-  // once, on the column's first use. (The sums are exact in double: at most a few hundred
-  // weights, each a float of at least outside_cluster_edge_weight / 3, so any order gives
-  // the same value.)
-  const int table_rows = std::max(0, search.bottom_row + 1);
+  // Every candidate's box ends on the search's bottom row (the scanner puts it there), so a
+  // column's weight from each row down to it is summed once, on the column's first use. (The
+  // sums are exact in double: at most a few hundred weights, each a float of at least
+  // outside_cluster_edge_weight / 3, so any order gives the same value.)
+  const int table_rows = search.bottom_row + 1;
   column_sums_.resize(static_cast<std::size_t>(table_rows + 1) * static_cast<std::size_t>(roi.width));
   column_ready_.assign(static_cast<std::size_t>(roi.width), 0);
   auto columnFrom = [&](int x) -> const double* {
     double* t = column_sums_.data() + static_cast<std::size_t>(x) * static_cast<std::size_t>(table_rows + 1);
     if (!column_ready_[static_cast<std::size_t>(x)]) {
       t[table_rows] = 0.0;
-      for (int y = table_rows - 1; y >= 0; --y) t[y] = t[y + 1] + static_cast<double>(pixelWeight(y, x));
+      for (int y = table_rows - 1; y >= 0; --y) {
+        const float w = extend_unassigned && extentMatch(y, x) ? scanner_.edgeWeightAt(left, roi.y + y, roi.x + x)
+                                                                : region_weights_.at<float>(y, x);
+        t[y] = t[y + 1] + static_cast<double>(w);
+      }
       column_ready_[static_cast<std::size_t>(x)] = 1;
     }
     return t;
@@ -374,14 +374,8 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
     // The symmetric core is often the torso only: grow the sides to the
     // object's edge extent (arms, a walking stance), within the width limit.
     const int max_half = search.max_half_width_px;
-    const int bottom_rel = c.box.y + c.box.height - 1;
     const double min_col_weight = cp.extent_min_edge_share * c.box.height;
-    auto columnWeight = [&](int x) {
-      if (bottom_rel == search.bottom_row) return columnFrom(x)[c.box.y];
-      double sum = 0.0;
-      for (int y = c.box.y; y <= bottom_rel; ++y) sum += static_cast<double>(pixelWeight(y, x));
-      return sum;
-    };
+    auto columnWeight = [&](int x) { return columnFrom(x)[c.box.y]; };
     int x_left = c.box.x;
     int x_right = c.box.x + c.box.width - 1;
     for (int x = c.box.x - 1, gap = 0; x >= std::max(0, c.axis_col - max_half) && gap <= cp.extent_gap_px; --x) {
