@@ -29,6 +29,22 @@ double boxSum(const cv::Mat& integral, int r0, int r1, int c0, int c1) {
          integral.at<double>(r0, c0);
 }
 
+// Index i of n rows or columns, reflected at the border (BORDER_REFLECT_101).
+int reflect101(int i, int n) {
+  if (n == 1) return 0;
+  if (i < 0) return -i;
+  if (i >= n) return 2 * n - 2 - i;
+  return i;
+}
+
+// |gx| + |gy| of the 3x3 Sobel at column c of rows up / mid / down, whose left and right
+// neighbours are columns cl and cr.
+int sobelMagnitude(const std::uint8_t* up, const std::uint8_t* mid, const std::uint8_t* down, int c, int cl, int cr) {
+  const int gx = (up[cr] + 2 * mid[cr] + down[cr]) - (up[cl] + 2 * mid[cl] + down[cl]);
+  const int gy = (down[cl] + 2 * down[c] + down[cr]) - (up[cl] + 2 * up[c] + up[cr]);
+  return std::abs(gx) + std::abs(gy);
+}
+
 }  // namespace
 
 SymmetryScanner::SymmetryScanner(const SymmetryParams& params) : params_(params) { params_.validate(); }
@@ -75,35 +91,26 @@ void SymmetryScanner::edgeWeights(const cv::Mat& grey, const cv::Mat& cluster_ma
   cv::Point ofs;
   grey.locateROI(whole, ofs);
   const std::size_t step = grey.step[0];
-  // Image row / column of region row / column i, reflected at the image border.
-  auto reflect = [](int i, int n) {
-    if (n == 1) return 0;
-    if (i < 0) return -i;
-    if (i >= n) return 2 * n - 2 - i;
-    return i;
-  };
   const float outside = cluster_mask.empty() ? 1.0f : params_.outside_cluster_edge_weight;
   const std::uint32_t one_bits = std::bit_cast<std::uint32_t>(1.0f);
   const std::uint32_t outside_bits = std::bit_cast<std::uint32_t>(outside);
   const float inv_full = 1.0f / (params_.full_weight_ratio * static_cast<float>(params_.edge_threshold));
   const int threshold = params_.edge_threshold;
   const int cols = grey.cols;
-  const int left_col = reflect(ofs.x - 1, whole.width) - ofs.x;          // region column of the left neighbour of 0
-  const int right_col = reflect(ofs.x + cols, whole.width) - ofs.x;      // ... of the right neighbour of cols - 1
+  const int left_col = reflect101(ofs.x - 1, whole.width) - ofs.x;          // region column of the left neighbour of 0
+  const int right_col = reflect101(ofs.x + cols, whole.width) - ofs.x;      // ... of the right neighbour of cols - 1
   for (int r = 0; r < grey.rows; ++r) {
     // Rows above and below, as pointers relative to the region's row 0 (inside the parent image).
     const std::uint8_t* base = grey.ptr<std::uint8_t>(0);
-    const auto* up = base + static_cast<std::ptrdiff_t>(reflect(ofs.y + r - 1, whole.height) - ofs.y) *
+    const auto* up = base + static_cast<std::ptrdiff_t>(reflect101(ofs.y + r - 1, whole.height) - ofs.y) *
                                 static_cast<std::ptrdiff_t>(step);
     const auto* mid = base + static_cast<std::ptrdiff_t>(r) * static_cast<std::ptrdiff_t>(step);
-    const auto* down = base + static_cast<std::ptrdiff_t>(reflect(ofs.y + r + 1, whole.height) - ofs.y) *
+    const auto* down = base + static_cast<std::ptrdiff_t>(reflect101(ofs.y + r + 1, whole.height) - ofs.y) *
                                   static_cast<std::ptrdiff_t>(step);
     const std::uint8_t* m = cluster_mask.empty() ? nullptr : cluster_mask.ptr<std::uint8_t>(r);
     auto* w = weights.ptr<float>(r);
     auto pixel = [&](int c, int cl, int cr) {
-      const int gx = (up[cr] + 2 * mid[cr] + down[cr]) - (up[cl] + 2 * mid[cl] + down[cl]);
-      const int gy = (down[cl] + 2 * down[c] + down[cr]) - (up[cl] + 2 * up[c] + up[cr]);
-      const int mag = std::abs(gx) + std::abs(gy);
+      const int mag = sobelMagnitude(up, mid, down, c, cl, cr);
       const float strength = std::min(1.0f, static_cast<float>(mag) * inv_full);
       const float factor = (m == nullptr || m[c] != 0) ? 1.0f : outside;
       w[c] = mag < threshold ? 0.0f : strength * factor;
@@ -130,14 +137,10 @@ void SymmetryScanner::edgeWeights(const cv::Mat& grey, const cv::Mat& cluster_ma
 }
 
 float SymmetryScanner::edgeWeightAt(const cv::Mat& image, int y, int x) const {
-  auto reflect = [](int i, int n) { return n == 1 ? 0 : i < 0 ? -i : i >= n ? 2 * n - 2 - i : i; };
-  const std::uint8_t* up = image.ptr<std::uint8_t>(reflect(y - 1, image.rows));
+  const std::uint8_t* up = image.ptr<std::uint8_t>(reflect101(y - 1, image.rows));
   const std::uint8_t* mid = image.ptr<std::uint8_t>(y);
-  const std::uint8_t* down = image.ptr<std::uint8_t>(reflect(y + 1, image.rows));
-  const int cl = reflect(x - 1, image.cols), cr = reflect(x + 1, image.cols);
-  const int gx = (up[cr] + 2 * mid[cr] + down[cr]) - (up[cl] + 2 * mid[cl] + down[cl]);
-  const int gy = (down[cl] + 2 * down[x] + down[cr]) - (up[cl] + 2 * up[x] + up[cr]);
-  const int mag = std::abs(gx) + std::abs(gy);
+  const std::uint8_t* down = image.ptr<std::uint8_t>(reflect101(y + 1, image.rows));
+  const int mag = sobelMagnitude(up, mid, down, x, reflect101(x - 1, image.cols), reflect101(x + 1, image.cols));
   const float inv_full = 1.0f / (params_.full_weight_ratio * static_cast<float>(params_.edge_threshold));
   return mag < params_.edge_threshold ? 0.0f : std::min(1.0f, static_cast<float>(mag) * inv_full);
 }
