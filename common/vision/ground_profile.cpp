@@ -364,6 +364,22 @@ bool GroundEstimator::hidesMeasuredGround(float offset, const std::vector<float>
          shown >= params_.min_support_fraction * supported;
 }
 
+int GroundEstimator::backgroundEdgeRow(const cv::Mat& score, float background) const {
+  const int d0 = std::max(0, static_cast<int>(std::floor(background)) - 1);
+  const int d1 = std::min(score.cols - 1, static_cast<int>(std::ceil(background)) + 1);
+  if (d0 > d1) return 0;
+  int last = -1;
+  for (int y = 0; y < score.rows; ++y) {
+    const float* s = score.ptr<float>(y);
+    if (*std::max_element(s + d0, s + d1 + 1) >= params_.background_edge_share) {
+      last = y;
+    } else if (last >= 0 && y - last > params_.background_edge_gap_rows) {
+      break;
+    }
+  }
+  return last + 1;
+}
+
 bool GroundEstimator::rollSetUp(const cv::Mat& left, const StereoRig& rig, GroundProfile& ground) {
   ground.offset_per_column = 0.0f;
   ground.offset_per_column_by_row.clear();
@@ -773,6 +789,23 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
   int horizon = 0;
   while (horizon < rows && out.offset_per_row[static_cast<std::size_t>(horizon)] < background) ++horizon;
   for (int y = 0; y < horizon; ++y) out.offset_per_row[static_cast<std::size_t>(y)] = background;
+  // The prior is level ground at the rig's height and pitch. On a slope the ground meets the
+  // background at another row: where the background's features end. The prior moved along
+  // the rows to meet it there replaces the prior when more rows support it (a crest hiding
+  // the far ground also moves the edge, while the near ground stays level: the support decides).
+  if (out.source == GroundSource::kPrior && params_.prior_background_edge && background > 0.0f) {
+    const int edge = backgroundEdgeRow(score, background);
+    const double slope = rig.groundOffsetPrior(1.0) - rig.groundOffsetPrior(0.0);
+    if (edge > 0 && edge < rows && edge != horizon && slope > 0.0) {
+      const GroundLine level{slope, -rig.groundOffsetPrior(0.0) / slope, 0};
+      const GroundLine moved{slope, static_cast<double>(edge) - static_cast<double>(background) / slope, 0};
+      if (support(moved, edge, rows, offsets, nullptr) > support(level, horizon, rows, offsets, nullptr)) {
+        for (int y = 0; y < rows; ++y)
+          out.offset_per_row[static_cast<std::size_t>(y)] = y < edge ? background : static_cast<float>(moved.offsetAt(y));
+        horizon = edge;
+      }
+    }
+  }
   out.background_offset = background;
   out.horizon_row = horizon;
   out.vertices.emplace_back(background, 0.0f);

@@ -47,6 +47,11 @@ struct GroundParams {
   int profile_band_rows = 24;         // rows per band of the along-the-line correction (0 = one shift)
   bool prefer_previous = true;        // previous frame's line before the mounting prior
   int max_previous_age_frames = 10;   // a previous line older than this is not used
+  // The mounting prior is flat ground. On a slope the ground meets the background elsewhere:
+  // the prior moved to where the background's features end is used when more rows support it.
+  bool prior_background_edge = true;
+  float background_edge_share = 0.6f;  // a row shows the background when this share of its features matches there
+  int background_edge_gap_rows = 4;    // rows without it tolerated inside the background
 
   template <class V>
   void visit(V& v) {
@@ -69,6 +74,12 @@ struct GroundParams {
             "row band of the ground line's measured correction (0 = one shift for the whole line)");
     v.field("prefer_previous", prefer_previous, 0, 1, "", "use the previous frame's line before the prior");
     v.field("max_previous_age_frames", max_previous_age_frames, 0, 100000, "frames", "oldest usable previous line");
+    v.field("prior_background_edge", prior_background_edge, 0, 1, "",
+            "also try the prior moved to meet the background's lower edge, keep the better supported");
+    v.field("background_edge_share", background_edge_share, 0.0, 1.0, "",
+            "share of a row's features matching the background offset that marks a background row");
+    v.field("background_edge_gap_rows", background_edge_gap_rows, 0, 100000, "rows",
+            "rows without the background tolerated inside it");
   }
   void validate() const {
     validateParams(*this, "ground");
@@ -150,6 +161,10 @@ class GroundEstimator {
   // `ground_per_row`) as a measured segment does (min_segment_rows, and min_support_fraction of
   // the hidden rows) and make up min_support_fraction of all the rows supporting the ground.
   bool hidesMeasuredGround(float offset, const std::vector<float>& ground_per_row) const;
+  // The row below the first run of rows (from the top, gaps of background_edge_gap_rows
+  // allowed) where at least background_edge_share of the features match the background
+  // offset +-1; 0 when no row does.
+  int backgroundEdgeRow(const cv::Mat& score, float background) const;
 
   GroundParams params_;
   std::vector<Peak> peaks_;

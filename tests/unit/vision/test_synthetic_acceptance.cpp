@@ -87,6 +87,37 @@ TEST(SyntheticGround, WeakTextureFallsBackToThePrior) {
   EXPECT_GE(groundRowsWithin1(r.ground, *pair.truth, 128), 0.9);
 }
 
+// On a slope the level prior misses the ground by many offsets. Where the background's
+// features end, the ground meets the background: the prior moved to meet it there follows an
+// uphill slope (more rows support it).
+TEST(SyntheticGround, WeakTextureOnASlopeMeetsTheBackgroundEdge) {
+  for (const double slope : {0.06, 0.08}) {
+    SyntheticSceneParams p = terrainScene(TerrainProfile::kUphill, slope);
+    p.weak_ground_texture = true;
+    const StereoPair pair = renderSyntheticScene(p, 16);
+    ASSERT_TRUE(pair.truth);
+    SegmenterParams level;
+    level.ground.prior_background_edge = false;
+    const SegmentationResult before = segment(pair, level);
+    const SegmentationResult after = segment(pair);
+    EXPECT_EQ(after.ground.source, GroundSource::kPrior) << "slope " << slope;
+    EXPECT_LT(groundRowsWithin1(before.ground, *pair.truth, 128), 0.3) << "slope " << slope;
+    EXPECT_GE(groundRowsWithin1(after.ground, *pair.truth, 128), 0.9) << "slope " << slope;
+    EXPECT_NEAR(after.ground.background_offset, pair.truth->background_offset, 1.0) << "slope " << slope;
+  }
+  // Level ground keeps the prior: WeakTextureFallsBackToThePrior, with the same defaults.
+}
+
+// A crest hides the far ground: the background shows ~50 rows below the level horizon, yet
+// the near ground is level and the prior right. The moved prior has less support there.
+TEST(SyntheticGround, WeakTextureBehindACrestKeepsTheLevelPrior) {
+  const StereoPair pair = renderSyntheticScene(randomSceneParams(16), 16);
+  ASSERT_TRUE(pair.truth);
+  const SegmentationResult r = segment(pair);
+  EXPECT_EQ(r.ground.source, GroundSource::kPrior);
+  EXPECT_GE(groundRowsWithin1(r.ground, *pair.truth, 128), 0.9);
+}
+
 // Share of the visible ground pixels (object id 0, below the found horizon) whose disparity
 // the found ground model (line per row plus transversal slope) gives within +-1.
 double groundPixelsWithin1(const GroundProfile& g, const SceneTruth& t) {
