@@ -364,6 +364,23 @@ bool GroundEstimator::hidesMeasuredGround(float offset, const std::vector<float>
          shown >= params_.min_support_fraction * supported;
 }
 
+int GroundEstimator::rowsBeyond(const GroundLine& line, int row_begin, int row_end, float background) const {
+  const double tol = params_.support_tolerance_px;
+  int count = 0;
+  for (int y = std::max(row_begin, 0); y < row_end; ++y) {
+    // The row's strongest peak (the first of equals).
+    const Peak* best = nullptr;
+    for (int i = row_peak_begin_[static_cast<std::size_t>(y)]; i < row_peak_begin_[static_cast<std::size_t>(y) + 1]; ++i) {
+      const Peak& p = peaks_[static_cast<std::size_t>(i)];
+      if (!best || p.weight > best->weight) best = &p;
+    }
+    if (!best) continue;
+    const double d = static_cast<double>(best->offset);
+    count += d < line.offsetAt(y) - tol && d > static_cast<double>(background) + tol ? 1 : 0;
+  }
+  return count;
+}
+
 int GroundEstimator::backgroundEdgeRow(const cv::Mat& score, float background) const {
   const int d0 = std::max(0, static_cast<int>(std::floor(background)) - 1);
   const int d1 = std::min(score.cols - 1, static_cast<int>(std::ceil(background)) + 1);
@@ -791,15 +808,25 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
   for (int y = 0; y < horizon; ++y) out.offset_per_row[static_cast<std::size_t>(y)] = background;
   // The prior is level ground at the rig's height and pitch. On a slope the ground meets the
   // background at another row: where the background's features end. The prior moved along
-  // the rows to meet it there replaces the prior when more rows support it (a crest hiding
-  // the far ground also moves the edge, while the near ground stays level: the support decides).
+  // the rows to meet it there replaces the prior when the level one is refuted (many rows show
+  // something farther than its ground), or when neither is and more rows support it (a crest
+  // hiding the far ground also moves the edge, while the near ground stays level).
   if (out.source == GroundSource::kPrior && params_.prior_background_edge && background > 0.0f) {
     const int edge = backgroundEdgeRow(score, background);
     const double slope = rig.groundOffsetPrior(1.0) - rig.groundOffsetPrior(0.0);
     if (edge > 0 && edge < rows && edge != horizon && slope > 0.0) {
       const GroundLine level{slope, -rig.groundOffsetPrior(0.0) / slope, 0};
       const GroundLine moved{slope, static_cast<double>(edge) - static_cast<double>(background) / slope, 0};
-      if (support(moved, edge, rows, offsets, nullptr) > support(level, horizon, rows, offsets, nullptr)) {
+      const int beyond_level = rowsBeyond(level, horizon, rows, background);
+      const int beyond_moved = rowsBeyond(moved, edge, rows, background);
+      auto refuted = [&](int beyond, int other) {
+        return beyond >= params_.min_support_rows && beyond >= params_.refuting_ratio * other;
+      };
+      bool use_moved = false;
+      if (refuted(beyond_level, beyond_moved)) use_moved = true;
+      else if (refuted(beyond_moved, beyond_level)) use_moved = false;
+      else use_moved = support(moved, edge, rows, offsets, nullptr) > support(level, horizon, rows, offsets, nullptr);
+      if (use_moved) {
         for (int y = 0; y < rows; ++y)
           out.offset_per_row[static_cast<std::size_t>(y)] = y < edge ? background : static_cast<float>(moved.offsetAt(y));
         horizon = edge;

@@ -52,6 +52,8 @@ struct GroundParams {
   bool prior_background_edge = true;
   float background_edge_share = 0.6f;  // a row shows the background when this share of its features matches there
   int background_edge_gap_rows = 4;    // rows without it tolerated inside the background
+  double refuting_ratio = 3.0;         // a line is refuted by min_support_rows rows beyond it, this many
+                                       // times the other line's
 
   template <class V>
   void visit(V& v) {
@@ -80,6 +82,8 @@ struct GroundParams {
             "share of a row's features matching the background offset that marks a background row");
     v.field("background_edge_gap_rows", background_edge_gap_rows, 0, 100000, "rows",
             "rows without the background tolerated inside it");
+    v.field("refuting_ratio", refuting_ratio, 1.0, 1000.0, "",
+            "rows beyond a prior line, relative to the other line's, that refute it");
   }
   void validate() const {
     validateParams(*this, "ground");
@@ -165,6 +169,10 @@ class GroundEstimator {
   // allowed) where at least background_edge_share of the features match the background
   // offset +-1; 0 when no row does.
   int backgroundEdgeRow(const cv::Mat& score, float background) const;
+  // Rows in [row_begin, row_end) whose strongest peak (of those that vote) lies farther
+  // than the line's ground by more than support_tolerance_px, and is not the background: what
+  // stands on the ground is never farther than the ground behind it.
+  int rowsBeyond(const GroundLine& line, int row_begin, int row_end, float background) const;
 
   GroundParams params_;
   std::vector<Peak> peaks_;

@@ -9,6 +9,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <yaml-cpp/yaml.h>
+
+#include "config/yaml_params.hpp"
 #include "io/synthetic_scene.hpp"
 #include "test_helpers.hpp"
 #include "vision/segmenter.hpp"
@@ -29,6 +32,8 @@ int main(int argc, char** argv) {
     const auto t1 = std::chrono::steady_clock::now();
     FeatureExtractor fx;
     SegmenterParams sgp;
+    // SG_PROBE_YAML='{ground: {...}, obstacles: {...}}': any segmentation parameter.
+    if (const char* yaml = std::getenv("SG_PROBE_YAML")) loadParams(YAML::Load(yaml), sgp, "SG_PROBE_YAML");
     if (const char* v = std::getenv("PEAK")) sgp.obstacles.min_peak_matches = std::atoi(v);
     if (const char* v = std::getenv("FEAT")) sgp.obstacles.min_cluster_features = std::atoi(v);
     if (const char* v = std::getenv("FRAC")) sgp.obstacles.min_match_fraction = std::atof(v);

@@ -91,8 +91,8 @@ TEST(SyntheticGround, WeakTextureFallsBackToThePrior) {
 // features end, the ground meets the background: the prior moved to meet it there follows an
 // uphill slope (more rows support it).
 TEST(SyntheticGround, WeakTextureOnASlopeMeetsTheBackgroundEdge) {
-  for (const double slope : {0.06, 0.08}) {
-    SyntheticSceneParams p = terrainScene(TerrainProfile::kUphill, slope);
+  for (const double slope : {-0.08, -0.06, 0.06, 0.08}) {
+    SyntheticSceneParams p = terrainScene(slope > 0 ? TerrainProfile::kUphill : TerrainProfile::kDownhill, std::abs(slope));
     p.weak_ground_texture = true;
     const StereoPair pair = renderSyntheticScene(p, 16);
     ASSERT_TRUE(pair.truth);
