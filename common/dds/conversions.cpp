@@ -582,8 +582,11 @@ void readDetections(const sg_idl_HumanDetections& in, DetectionsData& out) {
       fail(what, field + ".distance_m", "= " + str(d.distance_m) + " (sigma " + str(d.distance_sigma_m) +
                                             ") is negative");
     }
-    if (d.ground_contact_row < -1 || d.ground_contact_row > out.height) {
-      fail(what, field + ".ground_contact_row", "= " + str(d.ground_contact_row) + " is outside the image");
+    // The feet of a near person cut by the image bottom lie below it, by at most half the
+    // box's height (the localizer's limit); twice the image height is nonsense.
+    if (d.ground_contact_row < -1 || d.ground_contact_row > 2 * out.height) {
+      fail(what, field + ".ground_contact_row",
+           "= " + str(d.ground_contact_row) + " is above the image or more than an image height below it");
     }
     if (d.track_id < -1) fail(what, field + ".track_id", "= " + str(d.track_id) + " is below -1");
     HumanDetection h;

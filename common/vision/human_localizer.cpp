@@ -270,6 +270,11 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
   // A contact far below the cluster means the line is wrong for this object: trust the cluster.
   if (bottom > cluster_bottom + max_h_px / 2 || bottom < cbox.y + min_h_px / 2) bottom = cluster_bottom;
   bottom = std::clamp(bottom, 0, left.rows - 1);
+  // Feet below the image (a near person cut by its bottom edge): the smallest person shows only
+  // down to the last row, so fewer of its rows are in view.
+  int min_visible_px = min_h_px;
+  if (std::isfinite(contact) && bottom == left.rows - 1 && contact > left.rows - 1)
+    min_visible_px = std::max(cp.min_height_px, min_h_px - static_cast<int>(std::floor(contact - (left.rows - 1))));
 
   const int margin_x = static_cast<int>(std::lround(cp.region_margin * max_w_px));
   const int margin_y = 2 + cbox.height / 20;
@@ -277,10 +282,10 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
   const int x1 = std::min(left.cols - 1, cbox.x + cbox.width - 1 + margin_x);
   // Rows above the cluster top are not the cluster's: start at its top unless
   // the smallest person would be taller than the cluster.
-  const int y0 = std::max(0, std::min(cbox.y - margin_y, bottom - min_h_px));
+  const int y0 = std::max(0, std::min(cbox.y - margin_y, bottom - min_visible_px));
   const int y1 = std::min(left.rows - 1, std::max(bottom, cluster_bottom));
   const cv::Rect roi(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
-  if (roi.width < 3 || roi.height < min_h_px) return;
+  if (roi.width < 3 || roi.height < min_visible_px) return;
 
   const cv::Mat grey = left(roi);
   const bool labelled = !segmentation.labels.empty() && segmentation.labels.size() == left.size();
@@ -303,7 +308,7 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
   search.min_half_width_px = std::max(1, static_cast<int>(std::lround((min_w_px - 1.0) / 2.0)));
   search.max_half_width_px = std::max(search.min_half_width_px, static_cast<int>(std::lround((max_w_px - 1.0) / 2.0)));
   search.bottom_row = bottom - roi.y;
-  search.min_height_px = min_h_px;
+  search.min_height_px = min_visible_px;
   search.max_height_px = max_h_px;
   search.min_aspect = cp.min_aspect;
   search.max_aspect = cp.max_aspect;

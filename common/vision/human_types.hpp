@@ -14,7 +14,8 @@ struct HumanDetection {
   float distance_m = 0.0f;          // Z = f * B / offset
   float distance_sigma_m = 0.0f;    // 1-sigma distance uncertainty from the offset precision
   Eigen::Vector3f position_m{0, 0, 0};  // left camera frame: x right, y down, z forward
-  int ground_contact_row = -1;      // image row of the feet on the ground line
+  int ground_contact_row = -1;      // image row of the feet on the ground line (below the last row when
+                                    // the feet are out of view); -1: none
   int cluster_label = -1;           // obstacle cluster the candidate came from
   float symmetry = 0.0f;            // vertical symmetry score of the candidate, [0, 1]
   float shape_score = 0.0f;         // shape classifier (HOG + linear SVM) margin, unbounded

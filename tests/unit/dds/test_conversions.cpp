@@ -372,6 +372,15 @@ TEST(DetectionsConversion, RoundTripAndValidation) {
   bad[0] = msg.detections._buffer[0];
   bad[0].box.bottom = 400.0f;  // below the 375-row image
   EXPECT_THROW(readDetections(m, out), InputError);
+  // The feet of a person cut by the image bottom lie below it: accepted; far below: malformed.
+  bad[0] = msg.detections._buffer[0];
+  bad[0].ground_contact_row = 404;
+  readDetections(m, out);
+  EXPECT_EQ(out.detections[0].ground_contact_row, 404);
+  bad[0].ground_contact_row = 3 * 375;
+  EXPECT_THROW(readDetections(m, out), InputError);
+  bad[0].ground_contact_row = -2;
+  EXPECT_THROW(readDetections(m, out), InputError);
 }
 
 TEST(DetectionsConversion, ZeroAreaBoxIsMalformed) {

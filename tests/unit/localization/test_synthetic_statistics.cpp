@@ -124,5 +124,15 @@ TEST(SyntheticStatistics, WalkingStrideIsInsideTheBox) {
   EXPECT_LT(bestIouWithPerson(22, 17.7, extend(false)), 0.4);
 }
 
+// A person whose feet are below the image shows fewer rows than its height: in scene seed
+// 1017 a 1.01 m child 7.8 m away is cut by the bottom edge (67 px in view, truncation 0.30).
+// The smallest person searched is shortened by the rows the ground line puts below the image,
+// so the child gets a box; a minimum above the child's whole height still finds none.
+TEST(SyntheticStatistics, PersonCutByTheImageBottomGetsABox) {
+  auto min_height = [](double m) { return [m](DetectorParams& p) { p.localizer.candidates.min_height_m = m; }; };
+  EXPECT_GE(bestIouWithPerson(1017, 7.77, min_height(0.9)), 0.5);
+  EXPECT_LT(bestIouWithPerson(1017, 7.77, min_height(1.5)), 0.25);
+}
+
 }  // namespace
 }  // namespace sg
