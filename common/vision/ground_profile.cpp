@@ -368,14 +368,10 @@ int GroundEstimator::rowsBeyond(const GroundLine& line, int row_begin, int row_e
   const double tol = params_.support_tolerance_px;
   int count = 0;
   for (int y = std::max(row_begin, 0); y < row_end; ++y) {
-    // The row's strongest peak (the first of equals).
-    const Peak* best = nullptr;
-    for (int i = row_peak_begin_[static_cast<std::size_t>(y)]; i < row_peak_begin_[static_cast<std::size_t>(y) + 1]; ++i) {
-      const Peak& p = peaks_[static_cast<std::size_t>(i)];
-      if (!best || p.weight > best->weight) best = &p;
-    }
-    if (!best) continue;
-    const double d = static_cast<double>(best->offset);
+    // keepStrongest stores a row's peaks strongest first.
+    const int first = row_peak_begin_[static_cast<std::size_t>(y)];
+    if (first == row_peak_begin_[static_cast<std::size_t>(y) + 1]) continue;
+    const double d = static_cast<double>(peaks_[static_cast<std::size_t>(first)].offset);
     count += d < line.offsetAt(y) - tol && d > static_cast<double>(background) + tol ? 1 : 0;
   }
   return count;
@@ -822,10 +818,10 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
       auto refuted = [&](int beyond, int other) {
         return beyond >= params_.min_support_rows && beyond >= params_.refuting_ratio * other;
       };
-      bool use_moved = false;
-      if (refuted(beyond_level, beyond_moved)) use_moved = true;
-      else if (refuted(beyond_moved, beyond_level)) use_moved = false;
-      else use_moved = support(moved, edge, rows, offsets, nullptr) > support(level, horizon, rows, offsets, nullptr);
+      const bool use_moved =
+          refuted(beyond_level, beyond_moved) ||
+          (!refuted(beyond_moved, beyond_level) &&
+           support(moved, edge, rows, offsets, nullptr) > support(level, horizon, rows, offsets, nullptr));
       if (use_moved) {
         for (int y = 0; y < rows; ++y)
           out.offset_per_row[static_cast<std::size_t>(y)] = y < edge ? background : static_cast<float>(moved.offsetAt(y));

@@ -48,7 +48,8 @@ struct GroundParams {
   bool prefer_previous = true;        // previous frame's line before the mounting prior
   int max_previous_age_frames = 10;   // a previous line older than this is not used
   // The mounting prior is flat ground. On a slope the ground meets the background elsewhere:
-  // the prior moved to where the background's features end is used when more rows support it.
+  // the prior moved to where the background's features end is used when the level prior is
+  // refuted (rows showing something farther than its ground), or neither is and more rows support it.
   bool prior_background_edge = true;
   float background_edge_share = 0.6f;  // a row shows the background when this share of its features matches there
   int background_edge_gap_rows = 4;    // rows without it tolerated inside the background
@@ -77,7 +78,7 @@ struct GroundParams {
     v.field("prefer_previous", prefer_previous, 0, 1, "", "use the previous frame's line before the prior");
     v.field("max_previous_age_frames", max_previous_age_frames, 0, 100000, "frames", "oldest usable previous line");
     v.field("prior_background_edge", prior_background_edge, 0, 1, "",
-            "also try the prior moved to meet the background's lower edge, keep the better supported");
+            "also try the prior moved to meet the background's lower edge; keep the one not refuted, else the better supported");
     v.field("background_edge_share", background_edge_share, 0.0, 1.0, "",
             "share of a row's features matching the background offset that marks a background row");
     v.field("background_edge_gap_rows", background_edge_gap_rows, 0, 100000, "rows",

@@ -89,7 +89,8 @@ TEST(SyntheticGround, WeakTextureFallsBackToThePrior) {
 
 // On a slope the level prior misses the ground by many offsets. Where the background's
 // features end, the ground meets the background: the prior moved to meet it there follows an
-// uphill slope (more rows support it).
+// uphill slope (more rows support it) and a downhill one (rows seen beyond the level prior's
+// ground refute it).
 TEST(SyntheticGround, WeakTextureOnASlopeMeetsTheBackgroundEdge) {
   for (const double slope : {-0.08, -0.06, 0.06, 0.08}) {
     SyntheticSceneParams p = terrainScene(slope > 0 ? TerrainProfile::kUphill : TerrainProfile::kDownhill, std::abs(slope));
