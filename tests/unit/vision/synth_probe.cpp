@@ -137,14 +137,24 @@ int main(int argc, char** argv) {
                     cv::FONT_HERSHEY_PLAIN, 0.9, cv::Scalar(0, 255, 0));
       }
       // Share of the visible surface that carries features: plain faces show only their edges.
-      int with_features = 0;
+      // And where its features went: removed as ground or background, left unassigned, or in an obstacle.
+      int with_features = 0, as_ground = 0, as_background = 0, unassigned = 0;
       for (int y = 0; y < t.object_id.rows; ++y)
-        for (int x = 0; x < t.object_id.cols; ++x)
-          with_features += t.object_id.at<std::uint16_t>(y, x) == k + 2 && r.left_features.at<std::uint8_t>(y, x) != 0;
-      std::printf("   truth %-10s z %5.1f d %5.1f box [%d %d %d %d] vis %d feat %3.0f%% %s | best iou %.2f d %d %s\n", o.type.c_str(), o.location_m[2], d_true,
+        for (int x = 0; x < t.object_id.cols; ++x) {
+          if (t.object_id.at<std::uint16_t>(y, x) != k + 2 || r.left_features.at<std::uint8_t>(y, x) == 0) continue;
+          ++with_features;
+          const int label = r.labels.at<std::uint8_t>(y, x);
+          as_ground += label == kLabelGround;
+          as_background += label == kLabelBackground;
+          unassigned += label == kLabelUnassigned;
+        }
+      const double per_feature = 100.0 / std::max(1, with_features);
+      std::printf("   truth %-10s z %5.1f d %5.1f box [%d %d %d %d] vis %d feat %3.0f%% %s | best iou %.2f d %d %s"
+                  " | features ground %.0f%% background %.0f%% unassigned %.0f%%\n", o.type.c_str(), o.location_m[2], d_true,
                   box.x, box.y, box.x + box.width - 1, box.y + box.height - 1, t.object_visible_px[k],
                   100.0 * with_features / std::max(1, t.object_visible_px[k]), want ? "WANT" : "    ",
-                  best_iou, best >= 0 ? r.obstacles[static_cast<std::size_t>(best)].offset_px : -1, want ? (hit ? "ok" : "MISS") : "");
+                  best_iou, best >= 0 ? r.obstacles[static_cast<std::size_t>(best)].offset_px : -1, want ? (hit ? "ok" : "MISS") : "",
+                  as_ground * per_feature, as_background * per_feature, unassigned * per_feature);
     }
     for (std::size_t j = 0; j < r.obstacles.size(); ++j) {
       // Spurious: overlaps no truth object.

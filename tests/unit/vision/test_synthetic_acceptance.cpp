@@ -378,6 +378,40 @@ TEST(SyntheticObstacles, RecedingWallIsOneObstacle) {
   EXPECT_GT(joined, without);
 }
 
+// On scenes where receding walls are joined, the parallel segmentation (the obstacle loop's
+// vector row matches among its fast paths) gives the serial reference's labels and obstacles.
+TEST(SyntheticObstacles, JoinedFacesMatchTheSerialReference) {
+  int scenes_with_joins = 0;
+  for (int k = 0; k < 6; ++k) {
+    SyntheticSceneParams p;
+    SyntheticObstacle wall;
+    wall.shape = ObstacleShape::kLongWall;
+    wall.x_m = (k % 2 ? 1.0 : -1.0) * (3.5 + 0.5 * k);
+    wall.depth_m = 30.0;
+    wall.z_m = 8.0 + (k % 3) + 0.5 * wall.depth_m;
+    wall.width_m = 0.3;
+    wall.height_m = 2.0;
+    wall.texture_seed = static_cast<std::uint32_t>(100 + k);
+    p.obstacles = {wall};
+    const StereoPair pair = renderSyntheticScene(p, 1);
+    SegmenterParams serial_params, unjoined;
+    serial_params.parallel = false;
+    unjoined.obstacles.join_plain_faces = false;
+    const SegmentationResult fast = segment(pair), serial = segment(pair, serial_params);
+    SCOPED_TRACE("wall " + std::to_string(k));
+    ASSERT_TRUE(test::sameBits(fast.labels, serial.labels)) << "labels";
+    ASSERT_EQ(fast.obstacles.size(), serial.obstacles.size());
+    for (std::size_t i = 0; i < fast.obstacles.size(); ++i) {
+      EXPECT_EQ(fast.obstacles[i].box, serial.obstacles[i].box);
+      EXPECT_EQ(fast.obstacles[i].min_offset_px, serial.obstacles[i].min_offset_px);
+      EXPECT_EQ(fast.obstacles[i].max_offset_px, serial.obstacles[i].max_offset_px);
+      EXPECT_EQ(fast.obstacles[i].feature_count, serial.obstacles[i].feature_count);
+    }
+    scenes_with_joins += segment(pair, unjoined).obstacles.size() != fast.obstacles.size() ? 1 : 0;
+  }
+  EXPECT_GE(scenes_with_joins, 2);  // the comparison covers joined faces
+}
+
 // Obstacles over many random scenes: every object taller than 40 px and nearer
 // than 30 m must be found (offset within +-1 of its disparity at its location or
 // of the disparities its visible surface shows, 10th to 90th percentile: a
