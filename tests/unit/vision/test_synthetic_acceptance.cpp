@@ -350,21 +350,25 @@ TEST(SyntheticObstacles, ObstaclesBeyondTheRangeAreNotSearched) {
   for (const ObstacleCluster& c : limited.obstacles) EXPECT_GE(c.offset_px, fb / 20.0);
 }
 
+// Scene k of a set: one 30 m long wall receding in depth, 2 m tall, left or right of the rig.
+StereoPair recedingWallScene(int k) {
+  SyntheticSceneParams p;
+  SyntheticObstacle wall;
+  wall.shape = ObstacleShape::kLongWall;
+  wall.x_m = (k % 2 ? 1.0 : -1.0) * (3.5 + 0.5 * (k % 6));
+  wall.depth_m = 30.0;
+  wall.z_m = 8.0 + (k % 3) + 0.5 * wall.depth_m;
+  wall.width_m = 0.3;
+  wall.height_m = 2.0;
+  wall.texture_seed = static_cast<std::uint32_t>(100 + k);
+  p.obstacles = {wall};
+  return renderSyntheticScene(p, 1);
+}
+
 TEST(SyntheticObstacles, RecedingWallIsOneObstacle) {
   int walls = 0, joined = 0, without = 0;
   for (int k = 0; k < 12; ++k) {
-    const double x = (k % 2 ? 1.0 : -1.0) * (3.5 + 0.5 * (k % 6));
-    SyntheticSceneParams p;
-    SyntheticObstacle wall;
-    wall.shape = ObstacleShape::kLongWall;
-    wall.x_m = x;
-    wall.depth_m = 30.0;
-    wall.z_m = 8.0 + (k % 3) + 0.5 * wall.depth_m;
-    wall.width_m = 0.3;
-    wall.height_m = 2.0;
-    wall.texture_seed = static_cast<std::uint32_t>(100 + k);
-    p.obstacles = {wall};
-    const StereoPair pair = renderSyntheticScene(p, 1);
+    const StereoPair pair = recedingWallScene(k);
     auto found = [&](const SegmentationResult& r) { return objectFound(r, pair, 0); };
     SegmenterParams off;
     off.obstacles.join_plain_faces = false;
@@ -383,17 +387,7 @@ TEST(SyntheticObstacles, RecedingWallIsOneObstacle) {
 TEST(SyntheticObstacles, JoinedFacesMatchTheSerialReference) {
   int scenes_with_joins = 0;
   for (int k = 0; k < 6; ++k) {
-    SyntheticSceneParams p;
-    SyntheticObstacle wall;
-    wall.shape = ObstacleShape::kLongWall;
-    wall.x_m = (k % 2 ? 1.0 : -1.0) * (3.5 + 0.5 * k);
-    wall.depth_m = 30.0;
-    wall.z_m = 8.0 + (k % 3) + 0.5 * wall.depth_m;
-    wall.width_m = 0.3;
-    wall.height_m = 2.0;
-    wall.texture_seed = static_cast<std::uint32_t>(100 + k);
-    p.obstacles = {wall};
-    const StereoPair pair = renderSyntheticScene(p, 1);
+    const StereoPair pair = recedingWallScene(k);
     SegmenterParams serial_params, unjoined;
     serial_params.parallel = false;
     unjoined.obstacles.join_plain_faces = false;
