@@ -1,5 +1,8 @@
 // Diagnostic: per-seed statistics of the segmentation on synthetic scenes (not a test).
+#include <algorithm>
 #include <chrono>
+#include <numeric>
+#include <vector>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -149,6 +152,40 @@ int main(int argc, char** argv) {
           unassigned += label == kLabelUnassigned;
         }
       const double per_feature = 100.0 / std::max(1, with_features);
+      if (std::getenv("SNR") && o.type == "Pedestrian" && !hit && t.object_visible_px[k] > 0) {
+        // Unassigned left features matching the right at the person's offset (+-1), in the person's
+        // columns over its rows, against the same count in windows of its width elsewhere on those rows.
+        const int dd = static_cast<int>(std::lround(d_true));
+        auto countIn = [&](int x0) {
+          int hits = 0;
+          for (int y = box.y; y < box.y + box.height; ++y) {
+            const std::uint8_t* l = r.left_features.ptr<std::uint8_t>(y);
+            const std::uint8_t* rr = r.right_features.ptr<std::uint8_t>(y);
+            const std::uint8_t* lab = r.labels.ptr<std::uint8_t>(y);
+            for (int x = x0; x < x0 + box.width; ++x) {
+              if (lab[x] != kLabelUnassigned) continue;
+              bool m = false;
+              for (int e = dd - 1; e <= dd + 1 && !m; ++e)
+                m = x - e >= 0 && rr[x - e] != 0 && std::abs(int(l[x]) - int(rr[x - e])) <= 12;
+              hits += m;
+            }
+          }
+          return hits;
+        };
+        const int signal = countIn(box.x);
+        std::vector<int> noise;
+        for (int x0 = 0; x0 + box.width <= pair.left.cols; x0 += box.width)
+          if (x0 + box.width <= box.x - box.width || x0 >= box.x + 2 * box.width) noise.push_back(countIn(x0));
+        std::sort(noise.begin(), noise.end());
+        const double mean = std::accumulate(noise.begin(), noise.end(), 0.0) / std::max<std::size_t>(1, noise.size());
+        double var = 0.0;
+        for (const int v : noise) var += (v - mean) * (v - mean);
+        const double sd = std::sqrt(var / std::max<std::size_t>(1, noise.size()));
+        const int above = static_cast<int>(noise.end() - std::upper_bound(noise.begin(), noise.end(), signal - 1));
+        std::printf("SNR z %.1f h %d w %d signal %d noise mean %.1f sd %.1f z-score %.1f windows at least as high %d of %zu\n",
+                    o.location_m[2], box.height, box.width, signal, mean, sd, (signal - mean) / std::max(sd, 1e-9), above,
+                    noise.size());
+      }
       std::printf("   truth %-10s z %5.1f d %5.1f box [%d %d %d %d] vis %d feat %3.0f%% %s | best iou %.2f d %d %s"
                   " | features ground %.0f%% background %.0f%% unassigned %.0f%%\n", o.type.c_str(), o.location_m[2], d_true,
                   box.x, box.y, box.x + box.width - 1, box.y + box.height - 1, t.object_visible_px[k],
