@@ -1,13 +1,12 @@
 // Diagnostic: per-seed statistics of the segmentation on synthetic scenes (not a test).
 #include <algorithm>
 #include <chrono>
-#include <numeric>
-#include <vector>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-
+#include <numeric>
 #include <string>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -140,7 +139,8 @@ int main(int argc, char** argv) {
                     cv::FONT_HERSHEY_PLAIN, 0.9, cv::Scalar(0, 255, 0));
       }
       // Share of the visible surface that carries features: plain faces show only their edges.
-      // And where its features went: removed as ground or background, left unassigned, or in an obstacle.
+      // And where its features went: removed as ground or background, or left unassigned (the rest
+      // are in obstacles).
       int with_features = 0, as_ground = 0, as_background = 0, unassigned = 0;
       for (int y = 0; y < t.object_id.rows; ++y)
         for (int x = 0; x < t.object_id.cols; ++x) {
@@ -153,22 +153,20 @@ int main(int argc, char** argv) {
         }
       const double per_feature = 100.0 / std::max(1, with_features);
       if (std::getenv("SNR") && o.type == "Pedestrian" && !hit && t.object_visible_px[k] > 0) {
-        // Unassigned left features matching the right at the person's offset (+-1), in the person's
-        // columns over its rows, against the same count in windows of its width elsewhere on those rows.
+        // Unassigned left features matching the right at the person's offset (within the obstacle
+        // stage's offset and grey tolerances, pixel by pixel), in the person's columns over its rows,
+        // against the same count in windows of its width elsewhere on those rows.
         const int dd = static_cast<int>(std::lround(d_true));
+        const int dtol = sgp.obstacles.offset_tolerance_px;
+        std::vector<std::uint8_t> matched(static_cast<std::size_t>(pair.left.cols));
         auto countIn = [&](int x0) {
           int hits = 0;
           for (int y = box.y; y < box.y + box.height; ++y) {
-            const std::uint8_t* l = r.left_features.ptr<std::uint8_t>(y);
-            const std::uint8_t* rr = r.right_features.ptr<std::uint8_t>(y);
             const std::uint8_t* lab = r.labels.ptr<std::uint8_t>(y);
-            for (int x = x0; x < x0 + box.width; ++x) {
-              if (lab[x] != kLabelUnassigned) continue;
-              bool m = false;
-              for (int e = dd - 1; e <= dd + 1 && !m; ++e)
-                m = x - e >= 0 && rr[x - e] != 0 && std::abs(int(l[x]) - int(rr[x - e])) <= 12;
-              hits += m;
-            }
+            windowMatchRowReference(r.left_features.ptr<std::uint8_t>(y), r.right_features.ptr<std::uint8_t>(y),
+                                    pair.left.cols, x0, x0 + box.width, dd - dtol, dd + dtol,
+                                    sgp.obstacles.grey_tolerance, 0, matched.data());
+            for (int x = x0; x < x0 + box.width; ++x) hits += lab[x] == kLabelUnassigned && matched[static_cast<std::size_t>(x)];
           }
           return hits;
         };
