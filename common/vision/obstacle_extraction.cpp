@@ -56,6 +56,14 @@ int offsetBehind(const GroundProfile& ground, int y, int x) {
   return std::isfinite(b) ? static_cast<int>(std::lround(b)) : -1;
 }
 
+// Left feature pixel x pins an offset: its horizontal neighbours are features whose grey levels
+// differ by more than the matching tolerance (along a horizontal edge they do not, and a match
+// holds at any offset). The image's first and last columns have nothing to compare: they do not.
+inline bool pinsOffset(const std::uint8_t* l, int x, int width, int tol) {
+  if (x <= 0 || x >= width - 1 || l[x] == 0 || l[x - 1] == 0 || l[x + 1] == 0) return false;
+  return std::abs(static_cast<int>(l[x + 1]) - static_cast<int>(l[x - 1])) > tol;
+}
+
 // Share of features beside a plain gap, over the same rows, above which the surroundings are textured.
 constexpr double kPlainSurroundFraction = 0.2;
 
@@ -1056,12 +1064,8 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
   // Does column x hold a pixel of obstacle o whose horizontal neighbours differ by more than tol?
   auto pins = [&](const ObstacleCluster& o, int x) {
     if (x <= 0 || x >= cols - 1) return true;  // the image border: nothing to compare, keep
-    for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
-      if (labels.ptr<std::uint8_t>(y)[x] != o.label) continue;
-      const std::uint8_t* l = left.ptr<std::uint8_t>(y);
-      if (l[x - 1] != 0 && l[x + 1] != 0 && std::abs(static_cast<int>(l[x + 1]) - static_cast<int>(l[x - 1])) > tol)
-        return true;
-    }
+    for (int y = o.box.y; y < o.box.y + o.box.height; ++y)
+      if (labels.ptr<std::uint8_t>(y)[x] == o.label && pinsOffset(left.ptr<std::uint8_t>(y), x, cols, tol)) return true;
     return false;
   };
   int trimmed = 0;
@@ -1108,17 +1112,27 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         return matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, d_lo, d_hi, params_.grey_tolerance,
                        params_.match_half_window_px, cols);
       };
+      // Features of column x's inner rows that pin an offset: a horizontal edge (a window's
+      // or a panel's outline on a plain face) matches at every offset and tells no depth.
+      auto pinningIn = [&](int x) {
+        int n = 0;
+        for (int y = y0; y <= y1; ++y)
+          n += labels.ptr<std::uint8_t>(y)[x] != kLabelNone && pinsOffset(left.ptr<std::uint8_t>(y), x, cols, params_.grey_tolerance);
+        return n;
+      };
       // A column is plain when at most a quarter of its inner rows are features.
       auto plain = [&](int f) { return 4 * f <= inner; };
       // The gap: plain columns beside the obstacle, up to plain_max_width_m at its offset.
       const int max_gap = static_cast<int>(params_.plain_max_width_m * a.offset_px / baseline_m);
       const int first = dir > 0 ? a.box.x + a.box.width : a.box.x - 1;
-      int x = first, features = 0;
-      for (int f = 0; x >= 0 && x < cols && std::abs(x - first) <= max_gap && plain(f = featuresIn(x)); x += dir)
+      int x = first, features = 0, pinning = 0;
+      for (int f = 0; x >= 0 && x < cols && std::abs(x - first) <= max_gap && plain(f = featuresIn(x)); x += dir) {
         features += f;
+        pinning += pinningIn(x);
+      }
       const int gap = std::abs(x - first);
       if (gap == 0) continue;
-      if (features > params_.plain_max_feature_fraction * inner * gap) continue;
+      if (pinning > params_.plain_max_feature_fraction * inner * gap) continue;
       auto topHit = [&](int k) {
         bool hit = false;
         for (int y = std::max(0, a.box.y - 2); y <= std::min(left.rows - 1, a.box.y + 2) && !hit; ++y) hit = matches(y, k);
@@ -1141,7 +1155,9 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       // One side only (the far side hidden, at the image border or not a face's): the face
       // reaches as far as its top outline keeps matching in most columns.
       auto oneSided = [&]() {
-        if (!params_.plain_one_sided) return false;
+        // Without a far side, horizontal edges in the gap may be a receding face's texture (its
+        // offset changes along it): only a gap plain of every feature is taken at one offset.
+        if (!params_.plain_one_sided || features > params_.plain_max_feature_fraction * inner * gap) return false;
         int hits = 0, end = -1;
         for (int k = first; k != x; k += dir) {
           if (!topHit(k)) continue;

@@ -86,7 +86,9 @@ struct ObstacleParams {
   bool trim_plain_sides = true;    // side columns without a pixel that pins the offset are trimmed ...
   int plain_side_reach_px = 3;     // ... up to this many per side: the features' dilation (2) plus the Sobel's 1
   bool join_plain_faces = true;
-  double plain_max_feature_fraction = 0.05;  // feature share of the gap's inner rows up to which it is plain
+  double plain_max_feature_fraction = 0.05;  // share of the gap's inner pixels that are features pinning an
+                                             // offset (not along a horizontal edge) up to which it is plain;
+                                             // with one side only, of all its features
   double plain_min_outline_fraction = 0.5;   // share of the gap's columns whose top outline matches at the offset
   double plain_max_width_m = 15.0;           // widest gap joined (a long vehicle's side)
   double plain_height_tolerance = 0.25;      // a receding face's two sides: heights in metres within this
@@ -142,7 +144,8 @@ struct ObstacleParams {
             "most columns trimmed per side: how far the feature mask reaches past an outline");
     v.field("join_plain_faces", join_plain_faces, 0, 1, "", "join the two sides of a plain face");
     v.field("plain_max_feature_fraction", plain_max_feature_fraction, 0.0, 1.0, "",
-            "feature share of the gap between two sides up to which it is plain");
+            "share of the gap that is features pinning an offset (not horizontal edges; one side only: "
+            "any feature) up to which it is plain");
     v.field("plain_min_outline_fraction", plain_min_outline_fraction, 0.0, 1.0, "",
             "share of the gap's columns whose top outline matches at the sides' offset");
     v.field("plain_max_width_m", plain_max_width_m, 0.0, 1000.0, "metres", "widest plain gap joined");

@@ -20,6 +20,9 @@ struct AnalyticBox {
   double width_m = 1.0;
   double height_m = 1.8;
   int plain_grey = -1;     // >= 0: a plain face of this grey level instead of texture
+  int band_grey = -1;      // >= 0 on a plain face: a horizontal band of this grey level (a vehicle's windows)
+  double band_from_m = 0.0;  // the band's lower and upper edge above the foot (metres)
+  double band_to_m = 0.0;
 };
 
 struct AnalyticSceneParams {
@@ -117,8 +120,9 @@ inline AnalyticScene renderAnalyticScene(const AnalyticSceneParams& p) {
           const double foot = p.camera_height_m - groundRise(p, b.z_m);
           if (std::abs(x - b.x_m) <= b.width_m / 2 && y <= foot && y >= foot - b.height_m) {
             z_best = b.z_m;
+            const bool in_band = b.band_grey >= 0 && foot - y >= b.band_from_m && foot - y <= b.band_to_m;
             value = b.plain_grey >= 0
-                        ? b.plain_grey
+                        ? (in_band ? b.band_grey : b.plain_grey)
                         : textureAt(x, y, p.object_cell_m, p.seed + 100 + static_cast<std::uint32_t>(k), 20, 220);
           }
         }

@@ -238,6 +238,25 @@ TEST(SegmenterAnalytic, PlainFaceIsOneObstacle) {
   }
 }
 
+// A plain face crossed by a horizontal band of another grey (a vehicle's windows) shows two
+// horizontal edges between its sides. They match at every offset and tell no depth, so the
+// face is still plain between its sides and one obstacle.
+TEST(SegmenterAnalytic, PlainFaceWithAWindowBandIsOneObstacle) {
+  AnalyticSceneParams sp;
+  AnalyticBox face{0.5, 9.0, 3.0, 1.5, 40};
+  face.band_grey = 150;
+  face.band_from_m = 0.75;
+  face.band_to_m = 1.15;
+  sp.boxes = {face};
+  const auto scene = renderAnalyticScene(sp);
+  const cv::Rect truth = scene.box_rects[0];
+  SegmentationResult r;
+  const ObstacleCluster* found = segmentAndFind(scene, paramsFor(64), truth, r);
+  ASSERT_TRUE(found) << truth << " not found";
+  EXPECT_NEAR(found->offset_px, scene.box_offsets[0], 1.0);
+  EXPECT_EQ(r.obstacles.size(), 1u);
+}
+
 // A plain face cut by the image border (or whose far side is hidden) has one side only: it
 // reaches as far as its top outline keeps matching the side's offset.
 TEST(SegmenterAnalytic, PlainFaceCutByTheBorderIsOneObstacle) {
