@@ -111,6 +111,31 @@ void ObstacleExtractor::matchRow(const std::uint8_t* l, const std::uint8_t* r, i
   }
 }
 
+int ObstacleExtractor::ownOffset(const cv::Mat& remaining, const cv::Mat& right, const cv::Rect& box, int best) {
+  // d* is the peak of whole rows, which everything on them shares; the cluster found there
+  // matches at d* within the offset tolerance, and its own pixels may match best at a
+  // neighbour of d*. Of the offsets within the tolerance, the one with the most matches
+  // inside the box (ties: the one nearest d*, then the smaller).
+  const int tol = params_.offset_tolerance_px;
+  int own = best;
+  long own_count = -1;
+  for (int k = 0; k <= 2 * tol; ++k) {
+    const int d = best + (k % 2 == 0 ? k / 2 : -(k + 1) / 2);  // best, best - 1, best + 1, ...
+    if (d < 0 || d >= cols_) continue;
+    long count = 0;
+    for (int y = box.y; y < box.y + box.height; ++y) {
+      matchRow(remaining.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), box.x, box.x + box.width, d, d,
+               sweep_row_.data());
+      count += countOnes(sweep_row_.data() + box.x, box.width);
+    }
+    if (count > own_count) {
+      own = d;
+      own_count = count;
+    }
+  }
+  return own;
+}
+
 void ObstacleExtractor::resetMasks(RowMasks& masks, int d0, int d1) {
   masks.d0 = d0;
   masks.d1 = d1;
@@ -922,9 +947,9 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     }
     ObstacleCluster cluster;
     cluster.label = kLabelFirstObstacle + static_cast<int>(obstacles.size());
-    cluster.offset_px = best;
-    cluster.min_offset_px = dmin;
-    cluster.max_offset_px = dmax;
+    cluster.offset_px = params_.refine_offset ? ownOffset(remaining, right, box, best) : best;
+    cluster.min_offset_px = std::min(dmin, cluster.offset_px);
+    cluster.max_offset_px = std::max(dmax, cluster.offset_px);
     cluster.box = box;
     cluster.feature_count = sweepBox(box, cluster.label, true);
     obstacles.push_back(cluster);

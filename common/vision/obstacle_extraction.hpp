@@ -42,6 +42,8 @@ namespace sg {
 
 struct ObstacleParams {
   int max_obstacles = 12;           // obstacles per frame
+  bool refine_offset = true;        // an obstacle's offset is the one its own pixels match best within
+                                    // the offset tolerance of d* (d* is the peak of whole rows)
   int max_iterations = 24;          // candidates examined per frame (rejected ones included)
   int offset_tolerance_px = 1;      // offsets within +-this of d* match
   int grey_tolerance = 12;          // grey levels, as in the correlation
@@ -105,6 +107,8 @@ struct ObstacleParams {
   template <class V>
   void visit(V& v) {
     v.field("max_obstacles", max_obstacles, 0, 200, "", "obstacles per frame");
+    v.field("refine_offset", refine_offset, 0, 1, "",
+            "report the offset (within the tolerance of the histogram's peak) the cluster's own pixels match best");
     v.field("max_iterations", max_iterations, 0, 1000, "", "candidates examined per frame");
     v.field("offset_tolerance_px", offset_tolerance_px, 0, 16, "pixels", "offset tolerance around d*");
     v.field("grey_tolerance", grey_tolerance, 0, 254, "grey levels", "largest left/right grey difference that matches");
@@ -239,6 +243,8 @@ class ObstacleExtractor {
     std::vector<int> lo, hi;         // per row
   };
   void resetMasks(RowMasks& masks, int d0, int d1);
+  // The offset within the tolerance of `best` that the box's remaining features match best.
+  int ownOffset(const cv::Mat& remaining, const cv::Mat& right, const cv::Rect& box, int best);
   // Row y of `masks`, valid at least over columns [x0, x1) (the whole row by default).
   const std::uint8_t* maskRow(RowMasks& masks, const cv::Mat& remaining, const cv::Mat& right, int y, int x0 = 0,
                               int x1 = -1) {
