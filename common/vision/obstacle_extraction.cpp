@@ -103,11 +103,15 @@ ObstacleExtractor::ObstacleExtractor(const ObstacleParams& params, bool fast) : 
 
 void ObstacleExtractor::matchRow(const std::uint8_t* l, const std::uint8_t* r, int x0, int x1, int d0, int d1,
                                  std::uint8_t* out) {
+  matchRow(l, r, x0, x1, d0, d1, params_.match_half_window_px, out);
+}
+
+void ObstacleExtractor::matchRow(const std::uint8_t* l, const std::uint8_t* r, int x0, int x1, int d0, int d1,
+                                 int half, std::uint8_t* out) {
   if (fast_) {
-    simd::windowMatchRow(l, r, cols_, x0, x1, d0, d1, params_.grey_tolerance, params_.match_half_window_px,
-                         match_scratch_.data(), out);
+    simd::windowMatchRow(l, r, cols_, x0, x1, d0, d1, params_.grey_tolerance, half, match_scratch_.data(), out);
   } else {
-    windowMatchRowReference(l, r, cols_, x0, x1, d0, d1, params_.grey_tolerance, params_.match_half_window_px, out);
+    windowMatchRowReference(l, r, cols_, x0, x1, d0, d1, params_.grey_tolerance, half, out);
   }
 }
 
@@ -381,7 +385,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   }
   cols_ = cols;
   prepareContactRows(ground, rows, offsets);
-  match_scratch_.resize(static_cast<std::size_t>(simd::windowMatchScratchSize(cols, half)));
+  match_scratch_.resize(static_cast<std::size_t>(simd::windowMatchScratchSize(cols, std::max(half, params_.share_half_window_px))));
   sweep_row_.resize(static_cast<std::size_t>(cols));
   col_count_.resize(static_cast<std::size_t>(cols));
   if (params_.cell_px > 0) {
@@ -458,7 +462,11 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           while (xb < bx1 && col_offset_[static_cast<std::size_t>(xb)] == d) ++xb;
           // At least a vector wide: columns to the right of the run belong to runs not
           // computed yet, which overwrite them.
-          matchRow(l, r, xa, std::min(cols, std::max(xb, xa + simd::kLanes)), d - tol - 1, d + tol + 1,
+          // Counting (the matched share): each pixel on its own, at the column's offset
+          // +-(tol + share_offset_slack_px); clearing: the window, one offset further.
+          const int slack = clear_label < 0 ? tol + params_.share_offset_slack_px : tol + 1;
+          const int half_here = clear_label < 0 ? params_.share_half_window_px : half;
+          matchRow(l, r, xa, std::min(cols, std::max(xb, xa + simd::kLanes)), d - slack, d + slack, half_here,
                    sweep_row_.data());
           xa = xb;
         }

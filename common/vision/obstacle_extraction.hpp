@@ -61,6 +61,9 @@ struct ObstacleParams {
   int min_cluster_features = 100;   // matched feature pixels needed for an obstacle (half of that person)
   double min_match_fraction = 0.5;  // matched share of the box's remaining features: chance matches of
                                     // unmatched texture (occlusions, aliasing) stay well below it
+  int share_half_window_px = 0;     // the share counts each pixel on its own (a thin structure's
+                                    // neighbours often show what lies behind it) ...
+  int share_offset_slack_px = 0;    // ... at the column's offset +-(offset_tolerance_px + this)
   int contact_tolerance_px = 12;    // allowed gap between the cluster bottom and its ground contact row ...
   double contact_tolerance_fraction = 0.35;  // ... or this fraction of its height, whichever is larger
   double min_support_fraction = 0.5;  // share of the rows below a cluster, down to the last row it could show
@@ -122,6 +125,10 @@ struct ObstacleParams {
     v.field("min_width_px", min_width_px, 1, 100000, "pixels", "smallest obstacle width");
     v.field("min_cluster_features", min_cluster_features, 1, 10000000, "pixels", "smallest cluster");
     v.field("min_match_fraction", min_match_fraction, 0.0, 1.0, "", "matched share of the box's features");
+    v.field("share_half_window_px", share_half_window_px, 0, 8, "pixels",
+            "matching window of the matched share (0: each pixel on its own)");
+    v.field("share_offset_slack_px", share_offset_slack_px, 0, 8, "pixels",
+            "offsets beyond the tolerance that count for the matched share");
     v.field("contact_tolerance_px", contact_tolerance_px, 0, 100000, "pixels", "bottom to ground contact gap");
     v.field("contact_tolerance_fraction", contact_tolerance_fraction, 0.0, 10.0, "", "same, fraction of the height");
     v.field("min_support_fraction", min_support_fraction, 0.0, 1.0, "",
@@ -257,6 +264,8 @@ class ObstacleExtractor {
   const std::uint8_t* fillMaskRow(RowMasks& masks, const cv::Mat& remaining, const cv::Mat& right, int y, int x0,
                                   int x1);
   void matchRow(const std::uint8_t* l, const std::uint8_t* r, int x0, int x1, int d0, int d1, std::uint8_t* out);
+  void matchRow(const std::uint8_t* l, const std::uint8_t* r, int x0, int x1, int d0, int d1, int half,
+                std::uint8_t* out);
 
   ObstacleParams params_;
   bool fast_ = true;
