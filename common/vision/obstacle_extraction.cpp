@@ -118,20 +118,21 @@ void ObstacleExtractor::matchRow(const std::uint8_t* l, const std::uint8_t* r, i
 int ObstacleExtractor::ownOffset(const cv::Mat& remaining, const cv::Mat& right, const cv::Rect& box, int best) {
   // d* is the peak of whole rows, which everything on them shares; the cluster found there
   // matches at d* within the offset tolerance, and its own pixels may match best at a
-  // neighbour of d*. Of the offsets within the tolerance, the one with the most matches
-  // inside the box (ties: the one nearest d*, then the smaller).
+  // neighbour of d*. Of the offsets within the tolerance, the one with the most matching
+  // feature pixels inside the box (ties: the one nearest d*, then the smaller).
   const int tol = params_.offset_tolerance_px;
   int own = best;
   long own_count = -1;
   for (int k = 0; k <= 2 * tol; ++k) {
     const int d = best + (k % 2 == 0 ? k / 2 : -(k + 1) / 2);  // best, best - 1, best + 1, ...
     if (d < 0 || d >= cols_) continue;
+    // Each pixel on its own (the correlation's count, vectorised): chance matches spread
+    // evenly over neighbouring offsets, the cluster's own offset stands out.
     long count = 0;
-    for (int y = box.y; y < box.y + box.height; ++y) {
-      matchRow(remaining.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), box.x, box.x + box.width, d, d,
-               sweep_row_.data());
-      count += countOnes(sweep_row_.data() + box.x, box.width);
-    }
+    const int x0 = std::max(box.x, d);
+    for (int y = box.y; y < box.y + box.height && x0 < box.x + box.width; ++y)
+      count += countRowMatches(remaining.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x0, box.x + box.width, d,
+                               params_.grey_tolerance);
     if (count > own_count) {
       own = d;
       own_count = count;
