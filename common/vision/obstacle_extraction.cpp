@@ -447,6 +447,10 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   // col_offset_[x] only (grown clusters: each column of a receding wall has its own offset).
   int best = 0;
   auto sweepBox = [&](const cv::Rect& box, int clear_label, bool per_column) {
+    // Per column, counting (the matched share) takes each pixel on its own at the column's offset
+    // +-(tol + share_offset_slack_px); clearing takes the window, one offset further.
+    const int run_slack = clear_label < 0 ? tol + params_.share_offset_slack_px : tol + 1;
+    const int run_half = clear_label < 0 ? params_.share_half_window_px : half;
     int count = 0;
     const int bx1 = box.x + box.width;
     for (int y = box.y; y < box.y + box.height; ++y) {
@@ -463,11 +467,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           while (xb < bx1 && col_offset_[static_cast<std::size_t>(xb)] == d) ++xb;
           // At least a vector wide: columns to the right of the run belong to runs not
           // computed yet, which overwrite them.
-          // Counting (the matched share): each pixel on its own, at the column's offset
-          // +-(tol + share_offset_slack_px); clearing: the window, one offset further.
-          const int slack = clear_label < 0 ? tol + params_.share_offset_slack_px : tol + 1;
-          const int half_here = clear_label < 0 ? params_.share_half_window_px : half;
-          matchRow(l, r, xa, std::min(cols, std::max(xb, xa + simd::kLanes)), d - slack, d + slack, half_here,
+          matchRow(l, r, xa, std::min(cols, std::max(xb, xa + simd::kLanes)), d - run_slack, d + run_slack, run_half,
                    sweep_row_.data());
           xa = xb;
         }
@@ -1137,22 +1137,21 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       const int y0 = a.box.y + margin, y1 = a.box.y + a.box.height - 1 - margin;
       const int inner = y1 - y0 + 1;
       if (inner <= 0) continue;
-      auto featuresIn = [&](int x) {
+      // Features of column x's inner rows; with `pinning`, also those of them that pin an offset
+      // (a horizontal edge, a window's or a panel's outline on a plain face, matches at every
+      // offset and tells no depth).
+      auto featuresIn = [&](int x, int* pinning = nullptr) {
         int n = 0;
-        for (int y = y0; y <= y1; ++y) n += labels.ptr<std::uint8_t>(y)[x] != kLabelNone;
+        for (int y = y0; y <= y1; ++y) {
+          if (labels.ptr<std::uint8_t>(y)[x] == kLabelNone) continue;
+          ++n;
+          if (pinning && pinsOffset(left.ptr<std::uint8_t>(y), x, cols, params_.grey_tolerance)) ++*pinning;
+        }
         return n;
       };
       auto matches = [&](int y, int x) {
         return matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, d_lo, d_hi, params_.grey_tolerance,
                        params_.match_half_window_px, cols);
-      };
-      // Features of column x's inner rows that pin an offset: a horizontal edge (a window's
-      // or a panel's outline on a plain face) matches at every offset and tells no depth.
-      auto pinningIn = [&](int x) {
-        int n = 0;
-        for (int y = y0; y <= y1; ++y)
-          n += labels.ptr<std::uint8_t>(y)[x] != kLabelNone && pinsOffset(left.ptr<std::uint8_t>(y), x, cols, params_.grey_tolerance);
-        return n;
       };
       // A column is plain when at most a quarter of its inner rows are features.
       auto plain = [&](int f) { return 4 * f <= inner; };
@@ -1160,9 +1159,12 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       const int max_gap = static_cast<int>(params_.plain_max_width_m * a.offset_px / baseline_m);
       const int first = dir > 0 ? a.box.x + a.box.width : a.box.x - 1;
       int x = first, features = 0, pinning = 0;
-      for (int f = 0; x >= 0 && x < cols && std::abs(x - first) <= max_gap && plain(f = featuresIn(x)); x += dir) {
+      for (; x >= 0 && x < cols && std::abs(x - first) <= max_gap; x += dir) {
+        int p = 0;
+        const int f = featuresIn(x, &p);
+        if (!plain(f)) break;
         features += f;
-        pinning += pinningIn(x);
+        pinning += p;
       }
       const int gap = std::abs(x - first);
       if (gap == 0) continue;

@@ -22,20 +22,27 @@ struct RealPair {
   StereoRig rig;
 };
 
-// Reads calib/<frame>.txt (P2/P3 rows): f = P2[0][0], baseline = (P2[0][3] - P3[0][3]) / f.
-inline bool readKittiRig(const std::string& path, int width, int height, double camera_height_m, StereoRig& rig) {
+// The numbers of the first row of a KITTI calibration file that starts with `key:` (none when
+// the file or the row is missing).
+inline std::vector<double> kittiCalibRow(const std::string& path, const std::string& key) {
   std::ifstream in(path);
   std::string line;
-  std::vector<double> p2, p3;
   while (std::getline(in, line)) {
     std::istringstream ls(line);
-    std::string key;
-    ls >> key;
-    std::vector<double>* target = key == "P2:" ? &p2 : key == "P3:" ? &p3 : nullptr;
-    if (!target) continue;
+    std::string k;
+    ls >> k;
+    if (k != key + ":") continue;
+    std::vector<double> row;
     double v;
-    while (ls >> v) target->push_back(v);
+    while (ls >> v) row.push_back(v);
+    return row;
   }
+  return {};
+}
+
+// Reads calib/<frame>.txt (P2/P3 rows): f = P2[0][0], baseline = (P2[0][3] - P3[0][3]) / f.
+inline bool readKittiRig(const std::string& path, int width, int height, double camera_height_m, StereoRig& rig) {
+  const std::vector<double> p2 = kittiCalibRow(path, "P2"), p3 = kittiCalibRow(path, "P3");
   if (p2.size() < 12 || p3.size() < 12) return false;
   rig.focal_px = p2[0];
   rig.cx_px = p2[2];

@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -58,22 +57,6 @@ TEST(RealPairs, CameraHeightFromTheGroundLine) {
 // k15_000000 is the KITTI 2015 training pair 000000_10: the benchmark's disparity (16-bit PNG,
 // disparity x 256). rcnn_demo comes with its Velodyne scan and calibration: the points are
 // projected through Tr_velo_to_cam, R0_rect, P2 and P3, the nearest kept per pixel.
-std::vector<double> calibRow(const std::string& path, const std::string& key) {
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line)) {
-    std::istringstream ls(line);
-    std::string k;
-    ls >> k;
-    if (k != key + ":") continue;
-    std::vector<double> v;
-    double x;
-    while (ls >> x) v.push_back(x);
-    return v;
-  }
-  return {};
-}
-
 cv::Mat lidarDisparity(const std::string& name, cv::Size size) {
   const std::string real = std::string(SG_SHARED_DATA_DIR) + "/real/";
   cv::Mat disparity;
@@ -84,8 +67,8 @@ cv::Mat lidarDisparity(const std::string& name, cv::Size size) {
   }
   if (name != "rcnn_demo") return disparity;
   const std::string calib = real + "kitti_stereorcnn_demo/calib/calib.txt";
-  const std::vector<double> p2 = calibRow(calib, "P2"), p3 = calibRow(calib, "P3"), r0 = calibRow(calib, "R0_rect"),
-                            tr = calibRow(calib, "Tr_velo_to_cam");
+  const std::vector<double> p2 = test::kittiCalibRow(calib, "P2"), p3 = test::kittiCalibRow(calib, "P3"),
+                            r0 = test::kittiCalibRow(calib, "R0_rect"), tr = test::kittiCalibRow(calib, "Tr_velo_to_cam");
   std::ifstream scan(real + "kitti_stereorcnn_demo/lidar/lidar.bin", std::ios::binary);
   if (p2.size() != 12 || p3.size() != 12 || r0.size() != 9 || tr.size() != 12 || !scan) return disparity;
   disparity = cv::Mat::zeros(size, CV_32F);
@@ -131,9 +114,10 @@ TEST(RealPairs, OffsetsAgreeWithLidarDisparity) {
         const int label = r.labels.at<std::uint8_t>(y, x);
         if (d <= 0.0f) continue;
         if (label == kLabelGround) {
+          const float residual = d - r.ground.groundOffsetAt(y, static_cast<float>(x));
           ++ground_with_truth;
-          ground_on_line += std::abs(d - r.ground.groundOffsetAt(y, static_cast<float>(x))) <= 2.0f;
-          row_resid[static_cast<std::size_t>(y)].push_back(d - r.ground.groundOffsetAt(y, static_cast<float>(x)));
+          ground_on_line += std::abs(residual) <= 2.0f;
+          row_resid[static_cast<std::size_t>(y)].push_back(residual);
         } else if (label >= kLabelFirstObstacle) {
           per_obstacle[static_cast<std::size_t>(label - kLabelFirstObstacle)].push_back(d);
         }
