@@ -1259,54 +1259,83 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
     if (std::max(ha, hf) > (1.0 + params_.plain_height_tolerance) * std::min(ha, hf)) return false;
     const double ca = a.box.x + 0.5 * (a.box.width - 1), cf = f.box.x + 0.5 * (f.box.width - 1);
     if (std::abs(cf - ca) < 1.0) return false;
-    int features = 0, matched = 0, gap_other = 0, gap_area = 0, outlined = 0, gap_features = 0, gap_matched = 0;
-    bool blocked = false;
+    // The columns: the offset line, the outlines through the parts' tops and bottoms, and the
+    // features between them (the counts the verdict needs are known before any matching).
+    std::vector<FaceColumn>& columns = face_columns_;
+    columns.clear();
+    int features_total = 0, gap_features_total = 0, gap_area = 0;
     for (int x = std::min(a.box.x, f.box.x); x < std::max(a_end, f_end); ++x) {
       const double t = (x - ca) / (cf - ca);
       const double d = da + t * (df - da);
       if (d < 1.0) continue;
-      const int top = static_cast<int>(std::lround(a.box.y + t * (f.box.y - a.box.y)));
-      const int bottom = static_cast<int>(std::lround(a.box.y + a.box.height - 1 +
-                                                      t * (f.box.y + f.box.height - a.box.y - a.box.height)));
-      const int d0 = static_cast<int>(std::floor(d)) - tol, d1 = static_cast<int>(std::ceil(d)) + tol;
-      auto onFace = [&](int y) {
-        return matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, d0, d1, params_.grey_tolerance,
-                       params_.match_half_window_px, cols);
-      };
-      const bool in_gap = (x >= a_end || x < a.box.x) && (x >= f_end || x < f.box.x);
-      const int margin = std::max(2, (bottom - top + 1) / 8);
-      int other = 0, rows_in = 0, column_features = 0, column_matched = 0;
-      for (int y = std::max(0, top); y <= std::min(left.rows - 1, bottom); ++y) {
-        if (labels.ptr<std::uint8_t>(y)[x] == kLabelNone) continue;
-        const bool m = onFace(y);
-        ++features;
-        matched += m;
-        other += !m && y >= top + margin && y <= bottom - margin;
-        ++column_features;
-        // In a textured gap, a match that the ground or background behind explains as well is no evidence.
-        if (m && in_gap) {
-          const int b = offsetBehind(ground, y, x);
-          column_matched += b < 0 || b >= d0 - 1 ||
-                            !matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, b - tol, b + tol,
-                                     params_.grey_tolerance, params_.match_half_window_px, cols);
-        }
+      FaceColumn c;
+      c.x = x;
+      c.top = static_cast<int>(std::lround(a.box.y + t * (f.box.y - a.box.y)));
+      c.bottom = static_cast<int>(
+          std::lround(a.box.y + a.box.height - 1 + t * (f.box.y + f.box.height - a.box.y - a.box.height)));
+      c.d0 = static_cast<int>(std::floor(d)) - tol;
+      c.d1 = static_cast<int>(std::ceil(d)) + tol;
+      c.in_gap = (x >= a_end || x < a.box.x) && (x >= f_end || x < f.box.x);
+      for (int y = std::max(0, c.top); y <= std::min(left.rows - 1, c.bottom); ++y)
+        c.features += labels.ptr<std::uint8_t>(y)[x] != kLabelNone;
+      features_total += c.features;
+      if (c.in_gap) {
+        gap_features_total += c.features;
+        gap_area += std::max(0, c.bottom - c.top + 1 - 2 * std::max(2, (c.bottom - c.top + 1) / 8));
       }
-      if (!in_gap) continue;
-      rows_in = std::max(0, bottom - top + 1 - 2 * margin);
-      blocked |= 4 * other > rows_in;  // something in front of a plain face, or no face
-      gap_features += column_features;
-      gap_matched += column_matched;
-      gap_other += other;
-      gap_area += rows_in;
-      bool hit = false;
-      for (int y = std::max(0, top - 2); y <= std::min(left.rows - 1, top + 2) && !hit; ++y) hit = onFace(y);
-      outlined += hit;
+      columns.push_back(c);
     }
-    if (features == 0 || matched < params_.min_match_fraction * features) return false;
+    if (features_total == 0) return false;
+    const double frac = params_.min_match_fraction;
     // A textured gap (the face's own texture): most of its features match the offset line and
     // not the ground or background behind them.
-    if (gap_features >= kPlainSurroundFraction * gap_area && gap_matched >= params_.min_match_fraction * gap_features)
-      return true;
+    const bool gap_textured = gap_features_total >= kPlainSurroundFraction * gap_area;
+    int features = 0, matched = 0, gap_other = 0, outlined = 0, gap_features = 0, gap_matched = 0;
+    bool blocked = false;
+    // Gap columns first: once the gap is blocked and cannot be a textured face, or the matches
+    // cannot reach their share whatever the columns left hold, the verdict is known.
+    auto decided = [&]() {
+      if (matched + (features_total - features) < frac * features_total) return true;
+      return blocked && (!gap_textured || gap_matched + (gap_features_total - gap_features) < frac * gap_features_total);
+    };
+    for (const bool gap_pass : {true, false})
+      for (const FaceColumn& c : columns) {
+        if (c.in_gap != gap_pass) continue;
+        const int x = c.x;
+        auto onFace = [&](int y) {
+          return matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, c.d0, c.d1, params_.grey_tolerance,
+                         params_.match_half_window_px, cols);
+        };
+        const int margin = std::max(2, (c.bottom - c.top + 1) / 8);
+        int other = 0, column_matched = 0;
+        for (int y = std::max(0, c.top); y <= std::min(left.rows - 1, c.bottom); ++y) {
+          if (labels.ptr<std::uint8_t>(y)[x] == kLabelNone) continue;
+          const bool m = onFace(y);
+          matched += m;
+          other += !m && y >= c.top + margin && y <= c.bottom - margin;
+          // In a textured gap, a match that the ground or background behind explains as well is no evidence.
+          if (m && c.in_gap) {
+            const int b = offsetBehind(ground, y, x);
+            column_matched += b < 0 || b >= c.d0 - 1 ||
+                              !matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, b - tol, b + tol,
+                                       params_.grey_tolerance, params_.match_half_window_px, cols);
+          }
+        }
+        features += c.features;
+        if (c.in_gap) {
+          const int rows_in = std::max(0, c.bottom - c.top + 1 - 2 * margin);
+          blocked |= 4 * other > rows_in;  // something in front of a plain face, or no face
+          gap_features += c.features;
+          gap_matched += column_matched;
+          gap_other += other;
+          bool hit = false;
+          for (int y = std::max(0, c.top - 2); y <= std::min(left.rows - 1, c.top + 2) && !hit; ++y) hit = onFace(y);
+          outlined += hit;
+        }
+        if (decided()) return false;
+      }
+    if (matched < frac * features) return false;
+    if (gap_textured && gap_matched >= frac * gap_features) return true;
     // A plain gap: nothing in it that does not match the line, ...
     if (blocked) return false;
     // ... its top outline matching, and the rows both parts share textured beyond them: the

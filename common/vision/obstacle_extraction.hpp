@@ -308,6 +308,13 @@ class ObstacleExtractor {
   std::vector<int> touched_cells_;  // cells evaluated this iteration (reset before the next)
   std::vector<int> flood_;   // cells still to visit while growing a cluster
   std::vector<ObstacleCluster> kept_;  // joinPlainFaces: the obstacles left after a join
+  // joinPlainFaces: a column of a face receding in depth between two parts.
+  struct FaceColumn {
+    int x = 0, top = 0, bottom = 0, d0 = 0, d1 = 0;  // column, outlines, offsets matched
+    int features = 0;                                 // features between the outlines
+    bool in_gap = false;                              // between the parts
+  };
+  std::vector<FaceColumn> face_columns_;
   // Obstacle i takes in `reach` and the obstacles mostly inside it whose offsets meet
   // [d_lo, d_hi]; the others are renumbered with their labels, and i follows obstacle i.
   void foldInto(std::size_t& i, const cv::Rect& reach, int d_lo, int d_hi, cv::Mat& labels,
