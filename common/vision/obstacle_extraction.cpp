@@ -220,6 +220,27 @@ int ObstacleExtractor::rowLimitAt(int offset, int x) const {
                   firstRowReaching(groundRelative(offset, x) - static_cast<float>(params_.ground_clearance_px)) - 1);
 }
 
+void ObstacleExtractor::rowLimitsAt(int offset, int* out) const {
+  // rowLimitAt of every column. The query changes linearly along the row and ground_reach_ is
+  // sorted, so each column's row is found by stepping from the previous column's (the same
+  // row as the binary search); without a transversal slope every column has the first one.
+  const float clearance = static_cast<float>(params_.ground_clearance_px);
+  const int first = rowLimitAt(offset, 0);
+  if (per_column_ == 0.0f) {
+    std::fill(out, out + cols_, first);
+    return;
+  }
+  const float* reach = ground_reach_.data();
+  int i = first + 1;  // firstRowReaching of column 0 (or rows_ when the limit was clamped)
+  if (i >= rows_) i = firstRowReaching(groundRelative(offset, 0) - clearance);
+  for (int x = 0; x < cols_; ++x) {
+    const float v = groundRelative(offset, x) - clearance;
+    while (i < rows_ && reach[i] < v) ++i;
+    while (i > ground_top_ && reach[i - 1] >= v) --i;
+    out[x] = std::min(rows_ - 1, i - 1);
+  }
+}
+
 int ObstacleExtractor::contactRowAt(int offset, int x) const { return firstRowReaching(groundRelative(offset, x) - 0.5f); }
 
 int ObstacleExtractor::rowLimit(int offset) const { return row_limit_[static_cast<std::size_t>(offset)]; }
@@ -540,7 +561,11 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     auto maskAt = [&](int y, int x) -> int { return maskRow(candidate_masks_, remaining, right, y, x, x + 1)[x]; };
     // Per column, the rows above the ground of d* (on a transversal slope they differ).
     col_limit_.resize(static_cast<std::size_t>(cols));
-    for (int x = 0; x < cols; ++x) col_limit_[static_cast<std::size_t>(x)] = rowLimitAt(best, x);
+    if (fast_) {
+      rowLimitsAt(best, col_limit_.data());
+    } else {
+      for (int x = 0; x < cols; ++x) col_limit_[static_cast<std::size_t>(x)] = rowLimitAt(best, x);
+    }
     const int stripe_floor = *std::min_element(col_limit_.begin(), col_limit_.end());
     auto inStripe = [&](int y, int x) { return y <= col_limit_[static_cast<std::size_t>(x)]; };
     // Matches inside the stripe (a match implies a left feature) counted per column over rows.

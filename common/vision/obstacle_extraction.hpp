@@ -240,6 +240,7 @@ class ObstacleExtractor {
   int firstRowReaching(float offset) const;  // first row whose ground offset reaches `offset`, rows when none
   float groundRelative(int offset, int x) const;  // `offset` in column x as a ground offset at the reference column
   int rowLimitAt(int offset, int x) const;  // last row an obstacle at this offset may occupy in column x
+  void rowLimitsAt(int offset, int* out) const;  // rowLimitAt of every column (cols_ values)
   int contactRowAt(int offset, int x) const;  // ground contact row of this offset in column x, rows when none
 
   // Matches of rows at one offset range, evaluated on first use: per row the columns

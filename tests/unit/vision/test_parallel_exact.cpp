@@ -508,10 +508,14 @@ TEST(FastObstacles, TheLoopMatchesTheReferenceOnEveryPair) {
   wide.max_obstacles = 12;
   wide.offset_tolerance_px = 2;
   int found = 0;
+  // Also with the ground tilted across the image (a transversal slope): each column then has
+  // its own row limits.
+  for (const float tilt : {0.0f, 0.012f})
   for (const ObstacleParams& params : {ObstacleParams{}, wide}) {
     ObstacleExtractor fast(params, true), reference(params, false);  // reused over the pairs
     for (const Pair& p : all) {
-      SCOPED_TRACE(p.name + ", tolerance " + std::to_string(params.offset_tolerance_px));
+      SCOPED_TRACE(p.name + ", tolerance " + std::to_string(params.offset_tolerance_px) + ", tilt " +
+                   std::to_string(tilt));
       FeatureExtractor fx;
       cv::Mat lf, rf, score, matches, rem, lab;
       fx.compute(p.left, lf);
@@ -522,6 +526,10 @@ TEST(FastObstacles, TheLoopMatchesTheReferenceOnEveryPair) {
       GroundProfile profile;
       ground.compute(score, p.rig, nullptr, 0, profile);
       ground.estimateRoll(lf, rf, p.rig, profile);
+      if (tilt != 0.0f) {
+        profile.offset_per_column = tilt;
+        profile.reference_column = 0.5f * static_cast<float>(lf.cols);
+      }
       FeatureRemover remover;
       std::vector<std::uint8_t> changed;
       remover.compute(lf, rf, profile, rem, lab, changed);
