@@ -1276,7 +1276,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
   // plain with its top outline matching and textured surroundings.
   auto receding = [&](const ObstacleCluster& a, const ObstacleCluster& f) {
     const double da = a.offset_px, df = f.offset_px;
-    if (df < 1.0 || da <= df + tol + 1) return false;
+    if (df < 1.0 || da <= df) return false;
     const int a_end = a.box.x + a.box.width, f_end = f.box.x + f.box.width;  // exclusive
     const int gap = std::max(a.box.x, f.box.x) - std::min(a_end, f_end);   // negative: overlap
     if (gap < 1 || gap * baseline_m / df > params_.plain_max_width_m) return false;
