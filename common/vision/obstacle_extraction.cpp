@@ -225,14 +225,12 @@ void ObstacleExtractor::rowLimitsAt(int offset, int* out) const {
   // sorted, so each column's row is found by stepping from the previous column's (the same
   // row as the binary search); without a transversal slope every column has the first one.
   const float clearance = static_cast<float>(params_.ground_clearance_px);
-  const int first = rowLimitAt(offset, 0);
+  int i = firstRowReaching(groundRelative(offset, 0) - clearance);  // column 0's, as rowLimitAt
   if (per_column_ == 0.0f) {
-    std::fill(out, out + cols_, first);
+    std::fill(out, out + cols_, std::min(rows_ - 1, i - 1));
     return;
   }
   const float* reach = ground_reach_.data();
-  int i = first + 1;  // firstRowReaching of column 0 (or rows_ when the limit was clamped)
-  if (i >= rows_) i = firstRowReaching(groundRelative(offset, 0) - clearance);
   for (int x = 0; x < cols_; ++x) {
     const float v = groundRelative(offset, x) - clearance;
     while (i < rows_ && reach[i] < v) ++i;
@@ -1300,13 +1298,14 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
           std::lround(a.box.y + a.box.height - 1 + t * (f.box.y + f.box.height - a.box.y - a.box.height)));
       c.d0 = static_cast<int>(std::floor(d)) - tol;
       c.d1 = static_cast<int>(std::ceil(d)) + tol;
+      c.margin = std::max(2, (c.bottom - c.top + 1) / 8);
       c.in_gap = (x >= a_end || x < a.box.x) && (x >= f_end || x < f.box.x);
       for (int y = std::max(0, c.top); y <= std::min(left.rows - 1, c.bottom); ++y)
         c.features += labels.ptr<std::uint8_t>(y)[x] != kLabelNone;
       features_total += c.features;
       if (c.in_gap) {
         gap_features_total += c.features;
-        gap_area += std::max(0, c.bottom - c.top + 1 - 2 * std::max(2, (c.bottom - c.top + 1) / 8));
+        gap_area += std::max(0, c.bottom - c.top + 1 - 2 * c.margin);
       }
       columns.push_back(c);
     }
@@ -1331,13 +1330,12 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
           return matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, c.d0, c.d1, params_.grey_tolerance,
                          params_.match_half_window_px, cols);
         };
-        const int margin = std::max(2, (c.bottom - c.top + 1) / 8);
         int other = 0, column_matched = 0;
         for (int y = std::max(0, c.top); y <= std::min(left.rows - 1, c.bottom); ++y) {
           if (labels.ptr<std::uint8_t>(y)[x] == kLabelNone) continue;
           const bool m = onFace(y);
           matched += m;
-          other += !m && y >= c.top + margin && y <= c.bottom - margin;
+          other += !m && y >= c.top + c.margin && y <= c.bottom - c.margin;
           // In a textured gap, a match that the ground or background behind explains as well is no evidence.
           if (m && c.in_gap) {
             const int b = offsetBehind(ground, y, x);
@@ -1348,7 +1346,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         }
         features += c.features;
         if (c.in_gap) {
-          const int rows_in = std::max(0, c.bottom - c.top + 1 - 2 * margin);
+          const int rows_in = std::max(0, c.bottom - c.top + 1 - 2 * c.margin);
           blocked |= 4 * other > rows_in;  // something in front of a plain face, or no face
           gap_features += c.features;
           gap_matched += column_matched;

@@ -312,6 +312,7 @@ class ObstacleExtractor {
   // joinPlainFaces: a column of a face receding in depth between two parts.
   struct FaceColumn {
     int x = 0, top = 0, bottom = 0, d0 = 0, d1 = 0;  // column, outlines, offsets matched
+    int margin = 0;                                   // rows next to the outlines left out of its inner rows
     int features = 0;                                 // features between the outlines
     bool in_gap = false;                              // between the parts
   };

@@ -96,6 +96,10 @@ cv::Mat lidarDisparity(const std::string& name, cv::Size size) {
 // disparity of its pixels, and the ground-labelled features against the ground line.
 TEST(RealPairs, OffsetsAgreeWithLidarDisparity) {
   const auto pairs = test::loadKittiRigPairs();
+  auto median = [](std::vector<float>& v) {  // the upper median; v reordered
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
   std::vector<double> misses;  // per obstacle: pixels between its LiDAR median and its offset range
   int ground_with_truth = 0, ground_on_line = 0, frames = 0;
   for (const test::RealPair& p : pairs) {
@@ -127,9 +131,8 @@ TEST(RealPairs, OffsetsAgreeWithLidarDisparity) {
     int rows_judged = 0, rows_within = 0;
     for (std::vector<float>& v : row_resid) {
       if (v.size() < 10) continue;
-      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
       ++rows_judged;
-      rows_within += std::abs(v[v.size() / 2]) <= 1.0f;
+      rows_within += std::abs(median(v)) <= 1.0f;
     }
     std::printf("%-10s ground line: %d of %d rows within 1 px of their ground features' LiDAR median\n",
                 p.name.c_str(), rows_within, rows_judged);
@@ -143,11 +146,10 @@ TEST(RealPairs, OffsetsAgreeWithLidarDisparity) {
         std::printf("%zu pixels with LiDAR disparity, not judged\n", v.size());
         continue;
       }
-      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-      const double median = v[v.size() / 2];
-      const double miss = std::max({0.0, o.min_offset_px - median, median - o.max_offset_px});
+      const double lidar = median(v);
+      const double miss = std::max({0.0, o.min_offset_px - lidar, lidar - o.max_offset_px});
       misses.push_back(miss);
-      std::printf("LiDAR median %.2f over %zu pixels, %.2f px outside the range\n", median, v.size(), miss);
+      std::printf("LiDAR median %.2f over %zu pixels, %.2f px outside the range\n", lidar, v.size(), miss);
     }
   }
   ASSERT_EQ(frames, 2) << "LiDAR disparity of k15_000000 and rcnn_demo missing under " << SG_SHARED_DATA_DIR;
