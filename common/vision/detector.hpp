@@ -64,6 +64,8 @@ class Detector {
   void reset();
 
   const DetectorParams& params() const { return params_; }
+  // People-detector (HOG) evaluations since construction: about one per shape-validated box.
+  long hogDetectCalls() const { return localizer_.hogDetectCalls(); }
 
  private:
   DetectorParams params_;

@@ -104,8 +104,10 @@ int main(int argc, char** argv) {
     const char* draw_dir = std::getenv("DRAW");
     if (draw_dir) {
       // Left image with every feature in its label colour (visualize.hpp); truth green (wanted) / yellow, found red.
-      cv::cvtColor(pair.left, canvas, cv::COLOR_GRAY2BGR);
-      for (int y = 0; y < canvas.rows; ++y)
+      // RAW=1: the left image without labels; RAW=2: the right image.
+      const int raw = std::getenv("RAW") ? std::atoi(std::getenv("RAW")) : 0;
+      cv::cvtColor(raw == 2 ? pair.right : pair.left, canvas, cv::COLOR_GRAY2BGR);
+      for (int y = 0; y < (raw ? 0 : canvas.rows); ++y)
         for (int x = 0; x < canvas.cols; ++x)
           if (const int label = r.labels.at<std::uint8_t>(y, x); label != kLabelNone) {
             const cv::Scalar c = labelColour(label);  // the colours of the segment pictures
@@ -133,6 +135,26 @@ int main(int argc, char** argv) {
       for (const ObstacleCluster& c : r.obstacles) hit = hit || test::clusterFindsObject(c, box, d_true, d_surface);
       if (want) { ++wanted; found += hit; }
       if (!hit && t.object_visible_px[k] > 0 && (want || o.type == "Pedestrian")) missed.push_back(box);
+      if (draw_dir && std::getenv("MATCHED") && !hit && want) {
+        // MATCHED=1: unassigned features of the object that match at its offset (+-tolerance, the
+        // obstacle stage's window) drawn white, those that do not drawn black.
+        const int dd = static_cast<int>(std::lround(d_true));
+        const int dtol = sgp.obstacles.offset_tolerance_px;
+        std::vector<std::uint8_t> matched(static_cast<std::size_t>(pair.left.cols));
+        int white = 0, black = 0;
+        for (int y = box.y; y < box.y + box.height; ++y) {
+          windowMatchRowReference(r.left_features.ptr<std::uint8_t>(y), r.right_features.ptr<std::uint8_t>(y),
+                                  pair.left.cols, box.x, box.x + box.width, dd - dtol, dd + dtol,
+                                  sgp.obstacles.grey_tolerance, sgp.obstacles.match_half_window_px, matched.data());
+          for (int x = box.x; x < box.x + box.width; ++x) {
+            if (t.object_id.at<std::uint16_t>(y, x) != k + 2 || r.labels.at<std::uint8_t>(y, x) != kLabelUnassigned) continue;
+            const bool m = matched[static_cast<std::size_t>(x)] != 0;
+            (m ? white : black)++;
+            canvas.at<cv::Vec3b>(y, x) = m ? cv::Vec3b(255, 255, 255) : cv::Vec3b(0, 0, 0);
+          }
+        }
+        std::printf("   unassigned object features matching at d %d: %d, not: %d\n", dd, white, black);
+      }
       if (draw_dir && t.object_visible_px[k] > 0) {
         cv::rectangle(canvas, box, want ? cv::Scalar(0, 255, 0) : cv::Scalar(0, 255, 255), 1);
         cv::putText(canvas, std::to_string(static_cast<int>(std::lround(d_true))), box.tl() + cv::Point(0, -2),
