@@ -100,6 +100,29 @@ int main(int argc, char** argv) {
         std::printf("   row %3zu truth %6.2f found %6.2f\n", y, static_cast<double>(t.ground_offset_per_row[y]),
                     static_cast<double>(r.ground.offset_per_row[y]));
     }
+    if (const char* spec = std::getenv("DUMPLAB")) {
+      // DUMPLAB=x0,x1,y0,y1,d: per pixel the label (. none, u unassigned, g ground, b background,
+      // digit obstacle), upper case where the pixel matches the right image at d (+-1, window).
+      int x0 = 0, x1 = 0, y0 = 0, y1 = 0, dd = 0;
+      std::sscanf(spec, "%d,%d,%d,%d,%d", &x0, &x1, &y0, &y1, &dd);
+      std::vector<std::uint8_t> m(static_cast<std::size_t>(pair.left.cols));
+      for (int y = y0; y <= y1; ++y) {
+        windowMatchRowReference(r.left_features.ptr<std::uint8_t>(y), r.right_features.ptr<std::uint8_t>(y),
+                                pair.left.cols, x0, x1 + 1, dd - 1, dd + 1, sgp.obstacles.grey_tolerance,
+                                sgp.obstacles.match_half_window_px, m.data());
+        std::printf("   y %3d ", y);
+        for (int x = x0; x <= x1; ++x) {
+          const int lab = r.labels.at<std::uint8_t>(y, x);
+          char c = lab == kLabelNone ? '.' : lab == kLabelUnassigned ? 'u' : lab == kLabelGround ? 'g'
+                   : lab == kLabelBackground ? 'b' : static_cast<char>('0' + (lab - kLabelFirstObstacle) % 10);
+          if (m[static_cast<std::size_t>(x)] && c >= 'a') c = static_cast<char>(c - 32);
+          if (m[static_cast<std::size_t>(x)] && c >= '0' && c <= '9') c = '*';
+          const int obj = t.object_id.at<std::uint16_t>(y, x);
+          std::printf("%c%c", c, obj >= 2 ? '|' : ' ');
+        }
+        std::printf("\n");
+      }
+    }
     cv::Mat canvas;
     const char* draw_dir = std::getenv("DRAW");
     if (draw_dir) {
