@@ -1149,6 +1149,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
     throw InputError("obstacles: feature and label images must be mono8 of the same size");
   const int cols = left.cols;
   const int tol = params_.offset_tolerance_px;
+  hidden_columns_.reserve(static_cast<std::size_t>(cols));  // any gap is narrower than the image
   int joins = 0;
   for (std::size_t i = 0; i < obstacles.size(); ++i) {
     for (const int dir : {+1, -1}) {
@@ -1384,6 +1385,46 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
     return gap_area > 0 && gap_other <= params_.plain_max_feature_fraction * gap_area &&
            outlined >= params_.plain_min_outline_fraction * gap && beside >= kPlainSurroundFraction * beside_area;
   };
+  // One object seen on both sides of a nearer one (a vehicle behind a pedestrian): two parts at
+  // the same offsets, of the same height in metres, sharing most rows, with every column between
+  // them either hidden (behind a nearer obstacle, or in the band left of it that the right camera
+  // cannot see past it) or plain, and most of them hidden.
+  auto acrossNearer = [&](const ObstacleCluster& a, const ObstacleCluster& b) {
+    const int a_end = a.box.x + a.box.width;  // exclusive
+    if (b.box.x <= a_end) return false;       // b lies right of a, with a gap
+    if (b.min_offset_px > a.max_offset_px + tol + 1 || a.min_offset_px > b.max_offset_px + tol + 1) return false;
+    const double d = 0.5 * (a.offset_px + b.offset_px);
+    if (d < 1.0 || a.offset_px < 1 || b.offset_px < 1) return false;
+    if ((b.box.x + b.box.width - a.box.x) * baseline_m / d > params_.plain_max_width_m) return false;
+    const double ha = a.box.height * baseline_m / a.offset_px, hb = b.box.height * baseline_m / b.offset_px;
+    if (std::max(ha, hb) > (1.0 + params_.plain_height_tolerance) * std::min(ha, hb)) return false;
+    const int ya = std::max(a.box.y, b.box.y), yb = std::min(a.box.y + a.box.height, b.box.y + b.box.height) - 1;
+    if (2 * (yb - ya + 1) < std::min(a.box.height, b.box.height)) return false;
+    const int m = std::max(2, (yb - ya + 1) / 8);
+    const int inner = yb - ya + 1 - 2 * m;
+    if (inner <= 0) return false;
+    const int nearer_than = std::max(a.max_offset_px, b.max_offset_px) + tol + 1;
+    const int gap = b.box.x - a_end;
+    std::vector<std::uint8_t>& hidden = hidden_columns_;
+    hidden.assign(static_cast<std::size_t>(gap), 0);
+    for (const ObstacleCluster& o : obstacles) {
+      if (o.min_offset_px <= nearer_than || o.box.y > yb || o.box.y + o.box.height - 1 < ya) continue;
+      const int band = std::max(0, static_cast<int>(std::lround(o.offset_px - d)));
+      for (int x = std::max(o.box.x - band, a_end); x < std::min(o.box.x + o.box.width, b.box.x); ++x)
+        hidden[static_cast<std::size_t>(x - a_end)] = 1;
+    }
+    int n_hidden = 0;
+    for (int x = a_end; x < b.box.x; ++x) {
+      if (hidden[static_cast<std::size_t>(x - a_end)]) {
+        ++n_hidden;
+        continue;
+      }
+      int f = 0;
+      for (int y = ya + m; y <= yb - m; ++y) f += labels.ptr<std::uint8_t>(y)[x] != kLabelNone;
+      if (4 * f > inner) return false;  // neither hidden nor plain: something else stands there
+    }
+    return 2 * n_hidden >= gap;
+  };
   for (bool joined = true; joined;) {
     joined = false;
     for (std::size_t i = 0; i < obstacles.size() && !joined; ++i)
@@ -1394,6 +1435,20 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         std::size_t keep = std::min(i, j);
         const ObstacleCluster& other = obstacles[i + j - keep];
         const cv::Rect reach = other.box;
+        foldInto(keep, reach, other.min_offset_px - tol - 1, other.max_offset_px + tol + 1, labels, obstacles);
+        joined = true;
+        ++joins;
+      }
+  }
+  for (bool joined = params_.join_across_nearer; joined;) {
+    joined = false;
+    for (std::size_t i = 0; i < obstacles.size() && !joined; ++i)
+      for (std::size_t j = 0; j < obstacles.size() && !joined; ++j) {
+        if (i == j || !acrossNearer(obstacles[i], obstacles[j])) continue;
+        // The earlier (stronger) part keeps its label; the nearer obstacle stays apart.
+        std::size_t keep = std::min(i, j);
+        const cv::Rect reach = obstacles[i].box | obstacles[j].box;
+        const ObstacleCluster& other = obstacles[i + j - keep];
         foldInto(keep, reach, other.min_offset_px - tol - 1, other.max_offset_px + tol + 1, labels, obstacles);
         joined = true;
         ++joins;

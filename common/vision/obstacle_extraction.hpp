@@ -98,6 +98,8 @@ struct ObstacleParams {
   double plain_max_width_m = 15.0;           // widest gap joined (a long vehicle's side)
   double plain_height_tolerance = 0.25;      // a receding face's two sides: heights in metres within this
   bool plain_one_sided = true;               // a face with one side found reaches as far as its top outline
+  bool join_across_nearer = true;            // two parts at one offset, with a nearer obstacle between them hiding
+                                             // most of the gap (a vehicle behind a pedestrian), are one obstacle
   // Person-sized clusters below min_peak_matches / min_cluster_features: a person 25-35 m away
   // shows ~30-45 rows of a narrow outline. Such weaker clusters are kept when their size in
   // metres (from d* and the rig's baseline) is a person's. 0 turns this off.
@@ -160,6 +162,8 @@ struct ObstacleParams {
     v.field("plain_min_outline_fraction", plain_min_outline_fraction, 0.0, 1.0, "",
             "share of the gap's columns whose top outline matches at the sides' offset");
     v.field("plain_max_width_m", plain_max_width_m, 0.0, 1000.0, "metres", "widest plain gap joined");
+    v.field("join_across_nearer", join_across_nearer, 0, 1, "",
+            "join two parts at one offset whose gap a nearer obstacle mostly hides");
     v.field("plain_height_tolerance", plain_height_tolerance, 0.0, 10.0, "",
             "relative difference of a receding face's side heights in metres");
     v.field("plain_one_sided", plain_one_sided, 0, 1, "",
@@ -317,6 +321,7 @@ class ObstacleExtractor {
     bool in_gap = false;                              // between the parts
   };
   std::vector<FaceColumn> face_columns_;
+  std::vector<std::uint8_t> hidden_columns_;  // joinPlainFaces: gap columns behind a nearer obstacle
   // Obstacle i takes in `reach` and the obstacles mostly inside it whose offsets meet
   // [d_lo, d_hi]; the others are renumbered with their labels, and i follows obstacle i.
   void foldInto(std::size_t& i, const cv::Rect& reach, int d_lo, int d_hi, cv::Mat& labels,

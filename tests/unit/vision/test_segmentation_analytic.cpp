@@ -280,6 +280,33 @@ TEST(SegmenterAnalytic, PlainFaceCutByTheBorderIsOneObstacle) {
   }
 }
 
+// A vehicle-sized object with a person-sized one standing in front of its middle: the far one
+// shows on both sides of the near one. Joined across it, it is one obstacle at its own offset,
+// and the near one stays apart.
+TEST(SegmenterAnalytic, ObjectSeenOnBothSidesOfANearerOneIsOneObstacle) {
+  AnalyticSceneParams sp;
+  sp.boxes = {AnalyticBox{0.0, 14.0, 4.0, 1.5}, AnalyticBox{0.0, 8.0, 0.7, 1.8}};
+  const auto scene = renderAnalyticScene(sp);
+  const cv::Rect far_truth = scene.box_rects[0];
+  const cv::Rect near_truth = scene.box_rects[1];
+  for (const bool join : {true, false}) {
+    SegmenterParams p = paramsFor(64);
+    p.obstacles.join_across_nearer = join;
+    SegmentationResult r;
+    const ObstacleCluster* far = segmentAndFind(scene, p, far_truth, r);
+    bool near_found = false;
+    for (const ObstacleCluster& o : r.obstacles)
+      near_found |= test::iou(o.box, near_truth) >= 0.5 && std::abs(static_cast<float>(o.offset_px) - scene.box_offsets[1]) <= 1.0f;
+    EXPECT_TRUE(near_found) << "the nearer object, join " << join;
+    if (!join) {
+      EXPECT_FALSE(far) << "the far object is found whole without the join";
+      continue;
+    }
+    ASSERT_TRUE(far) << far_truth << " not found";
+    EXPECT_NEAR(far->offset_px, scene.box_offsets[0], 1.0);
+  }
+}
+
 // Two textured objects side by side at one distance on ground without texture: the plain
 // gap between them is ground, not a face, and they stay two obstacles.
 TEST(SegmenterAnalytic, PlainGroundBetweenTwoObjectsIsNoFace) {
