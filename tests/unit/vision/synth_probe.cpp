@@ -29,7 +29,8 @@ int main(int argc, char** argv) {
   const int first = std::getenv("FIRST") ? std::atoi(std::getenv("FIRST")) : 1;
   for (int seed = first; seed < first + n; ++seed) {
     const auto t0 = std::chrono::steady_clock::now();
-    const SyntheticSceneParams sp = randomSceneParams(static_cast<std::uint64_t>(seed), w, h);
+    SyntheticSceneParams sp = randomSceneParams(static_cast<std::uint64_t>(seed), w, h);
+    if (const char* g = std::getenv("GAIN"); g && *g) sp.right_gain = std::atof(g);  // GAIN=1: cameras of equal gain
     const StereoPair pair = renderSyntheticScene(sp, static_cast<std::uint64_t>(seed));
     const auto t1 = std::chrono::steady_clock::now();
     FeatureExtractor fx;
@@ -118,6 +119,15 @@ int main(int argc, char** argv) {
           if (m[static_cast<std::size_t>(x)] && c >= 'a') c = static_cast<char>(c - 32);
           if (m[static_cast<std::size_t>(x)] && c >= '0' && c <= '9') c = '*';
           const int obj = t.object_id.at<std::uint16_t>(y, x);
+          if (std::getenv("DUMPDIFF")) {
+            // the smallest |left - right| over d-1..d+1 of the raw images, in steps of 4 grey levels
+            int best = 255;
+            for (int k = dd - 1; k <= dd + 1; ++k)
+              if (x - k >= 0)
+                best = std::min(best, std::abs(static_cast<int>(pair.left.at<std::uint8_t>(y, x)) -
+                                               static_cast<int>(pair.right.at<std::uint8_t>(y, x - k))));
+            c = best / 4 > 9 ? '+' : static_cast<char>('0' + best / 4);
+          }
           std::printf("%c%c", c, obj >= 2 ? '|' : ' ');
         }
         std::printf("\n");
