@@ -1141,9 +1141,12 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
 
 int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
                                       cv::Mat& labels, std::vector<ObstacleCluster>& obstacles, double baseline_m) {
-  // A plain gap is evidence of a face only where the ground behind it would show texture: on
-  // frames whose ground line could not be measured from texture nothing is joined.
-  if (!params_.join_plain_faces || baseline_m <= 0.0 || ground.source != GroundSource::kHough) return 0;
+  // Where the ground line was not measured (its texture too weak), a plain gap beside an obstacle
+  // may be that ground: only two sides at one offset, with the top outline across the gap and a
+  // textured surround, are joined there; one-sided faces, receding faces and parts across a nearer
+  // obstacle need the measured line.
+  const bool measured_ground = ground.source == GroundSource::kHough;
+  if (!params_.join_plain_faces || baseline_m <= 0.0) return 0;
   if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() || labels.size() != left.size() ||
       labels.type() != CV_8UC1)
     throw InputError("obstacles: feature and label images must be mono8 of the same size");
@@ -1217,7 +1220,8 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       auto oneSided = [&]() {
         // Without a far side, horizontal edges in the gap may be a receding face's texture (its
         // offset changes along it): only a gap plain of every feature is taken at one offset.
-        if (!params_.plain_one_sided || features > params_.plain_max_feature_fraction * inner * gap) return false;
+        if (!measured_ground || !params_.plain_one_sided || features > params_.plain_max_feature_fraction * inner * gap)
+          return false;
         int hits = 0, end = -1;
         for (int k = first; k != x; k += dir) {
           if (!topHit(k)) continue;
@@ -1429,7 +1433,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
     joined = false;
     for (std::size_t i = 0; i < obstacles.size() && !joined; ++i)
       for (std::size_t j = 0; j < obstacles.size() && !joined; ++j) {
-        if (i == j || !receding(obstacles[i], obstacles[j])) continue;
+        if (i == j || !measured_ground || !receding(obstacles[i], obstacles[j])) continue;
         // The earlier (stronger) part keeps its label; the other, and what lies inside it at its
         // offsets, folds into it (an obstacle in front of the face stays apart).
         std::size_t keep = std::min(i, j);
@@ -1444,7 +1448,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
     joined = false;
     for (std::size_t i = 0; i < obstacles.size() && !joined; ++i)
       for (std::size_t j = 0; j < obstacles.size() && !joined; ++j) {
-        if (i == j || !acrossNearer(obstacles[i], obstacles[j])) continue;
+        if (i == j || !measured_ground || !acrossNearer(obstacles[i], obstacles[j])) continue;
         // The earlier (stronger) part keeps its label; the nearer obstacle stays apart.
         std::size_t keep = std::min(i, j);
         const cv::Rect reach = obstacles[i].box | obstacles[j].box;

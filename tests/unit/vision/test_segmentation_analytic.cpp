@@ -238,6 +238,24 @@ TEST(SegmenterAnalytic, PlainFaceIsOneObstacle) {
   }
 }
 
+// On ground too weakly textured to measure its line (the mounting prior stands in), a plain
+// face with both sides found is still joined: its top outline runs across the gap, and the
+// textured background beside its upper part shows that the gap hides something. (A face lower
+// than the camera has only the plain ground beside it, which a plain gap may be: not joined.)
+TEST(SegmenterAnalytic, PlainFaceOnWeakGroundIsOneObstacle) {
+  AnalyticSceneParams sp;
+  sp.ground_contrast = 4;
+  sp.boxes = {AnalyticBox{0.5, 12.0, 3.0, 2.6, 40}};
+  const auto scene = renderAnalyticScene(sp);
+  const cv::Rect truth = scene.box_rects[0];
+  SegmentationResult r;
+  const ObstacleCluster* found = segmentAndFind(scene, paramsFor(64), truth, r);
+  ASSERT_NE(r.ground.source, GroundSource::kHough) << "the ground must be too weak to measure";
+  ASSERT_TRUE(found) << truth << " not found";
+  EXPECT_NEAR(found->offset_px, scene.box_offsets[0], 1.0);
+  EXPECT_EQ(r.obstacles.size(), 1u);
+}
+
 // A plain face crossed by a horizontal band of another grey (a vehicle's windows) shows two
 // horizontal edges between its sides. They match at every offset and tell no depth, so the
 // face is still plain between its sides and one obstacle.
