@@ -60,6 +60,24 @@ int main(int argc, char** argv) {
     SegmentationResult r;
     segmentPair(fx, seg, pair.left, pair.right, pair.rig, r);
     const SceneTruth& t = *pair.truth;
+    // Left pixels the right camera sees too: on its row, no left pixel with a larger disparity
+    // lands on the same right column (a left-right occlusion test on the true disparities).
+    cv::Mat seen_right(t.disparity.size(), CV_8UC1, cv::Scalar(1));
+    for (int y = 0; y < t.disparity.rows; ++y) {
+      std::vector<float> nearest(static_cast<std::size_t>(t.disparity.cols), -1.0f);
+      for (int x = 0; x < t.disparity.cols; ++x) {
+        const float d = t.disparity.at<float>(y, x);
+        const int xr = static_cast<int>(std::lround(x - d));
+        if (xr < 0 || xr >= t.disparity.cols) { seen_right.at<std::uint8_t>(y, x) = 0; continue; }
+        nearest[static_cast<std::size_t>(xr)] = std::max(nearest[static_cast<std::size_t>(xr)], d);
+      }
+      for (int x = 0; x < t.disparity.cols; ++x) {
+        const float d = t.disparity.at<float>(y, x);
+        const int xr = static_cast<int>(std::lround(x - d));
+        if (xr >= 0 && xr < t.disparity.cols && nearest[static_cast<std::size_t>(xr)] > d + 0.75f)
+          seen_right.at<std::uint8_t>(y, x) = 0;
+      }
+    }
     int rows = 0, ok = 0;
     for (std::size_t y = 0; y < t.ground_offset_per_row.size(); ++y) {
       if (!std::isfinite(t.ground_offset_per_row[y])) continue;
@@ -196,10 +214,13 @@ int main(int argc, char** argv) {
       // Share of the visible surface that carries features: plain faces show only their edges.
       // And where its features went: removed as ground or background, or left unassigned (the rest
       // are in obstacles).
-      int with_features = 0, as_ground = 0, as_background = 0, unassigned = 0;
+      int with_features = 0, as_ground = 0, as_background = 0, unassigned = 0, visible_left = 0, visible_both = 0;
       for (int y = 0; y < t.object_id.rows; ++y)
         for (int x = 0; x < t.object_id.cols; ++x) {
-          if (t.object_id.at<std::uint16_t>(y, x) != k + 2 || r.left_features.at<std::uint8_t>(y, x) == 0) continue;
+          if (t.object_id.at<std::uint16_t>(y, x) != k + 2) continue;
+          ++visible_left;
+          visible_both += seen_right.at<std::uint8_t>(y, x);
+          if (r.left_features.at<std::uint8_t>(y, x) == 0) continue;
           ++with_features;
           const int label = r.labels.at<std::uint8_t>(y, x);
           as_ground += label == kLabelGround;
@@ -240,11 +261,12 @@ int main(int argc, char** argv) {
                     noise.size());
       }
       std::printf("   truth %-10s z %5.1f d %5.1f box [%d %d %d %d] vis %d feat %3.0f%% %s | best iou %.2f d %d %s"
-                  " | features ground %.0f%% background %.0f%% unassigned %.0f%%\n", o.type.c_str(), o.location_m[2], d_true,
+                  " | features ground %.0f%% background %.0f%% unassigned %.0f%% | seen by the right camera %.0f%%\n", o.type.c_str(), o.location_m[2], d_true,
                   box.x, box.y, box.x + box.width - 1, box.y + box.height - 1, t.object_visible_px[k],
                   100.0 * with_features / std::max(1, t.object_visible_px[k]), want ? "WANT" : "    ",
                   best_iou, best >= 0 ? r.obstacles[static_cast<std::size_t>(best)].offset_px : -1, want ? (hit ? "ok" : "MISS") : "",
-                  as_ground * per_feature, as_background * per_feature, unassigned * per_feature);
+                  as_ground * per_feature, as_background * per_feature, unassigned * per_feature,
+                  100.0 * visible_both / std::max(1, visible_left));
     }
     for (std::size_t j = 0; j < r.obstacles.size(); ++j) {
       // Spurious: overlaps no truth object.
