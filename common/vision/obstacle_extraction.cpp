@@ -1458,6 +1458,166 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         ++joins;
       }
   }
+  // Plain faces receding to the image border (a long wall seen at an angle, its near end out of
+  // view): only a part near its far end is found, and nothing past it shows texture. A vertical
+  // face standing on the ground with a level top has, along the row, an offset that changes
+  // linearly and a top outline at contact(d) - H d / B (H its height in metres), so one offset
+  // slope k and one height H (from the top row at the part) predict the outline in every column.
+  // The part grows to the border when, for some (k, H), the predicted outline holds a feature
+  // matching the predicted offset in most columns, the face below it is plain, the outline
+  // slants and the offset changes (a level line such as the horizon matches at any offset), and
+  // the outline runs out of the image (no far side was found).
+  if (params_.plain_outline_faces && measured_ground && !ground.offset_per_row.empty()) {
+    const int rows = left.rows;
+    const int max_offset = static_cast<int>(row_limit_.size()) - 1;
+    // Contact rows below the image: the ground line continued with its slope over the last rows.
+    constexpr int kSlopeRows = 20;
+    const float g_last = ground.offset_per_row.back();
+    const float g_prev = rows > kSlopeRows ? ground.offset_per_row[static_cast<std::size_t>(rows - 1 - kSlopeRows)] : g_last;
+    const double slope_last =
+        std::isfinite(g_last) && std::isfinite(g_prev) ? static_cast<double>(g_last - g_prev) / kSlopeRows : 0.0;
+    auto contactOf = [&](double d, int x) {
+      const int di = static_cast<int>(std::lround(d));
+      const int c = contactRowAt(di, x);
+      if (c < rows || slope_last <= 1e-3) return static_cast<double>(c);
+      return rows - 1 + static_cast<double>(groundRelative(di, x) - g_last) / slope_last;
+    };
+    auto outlineHit = [&](int x, double yt, double d) {
+      const int yc = static_cast<int>(std::lround(yt));
+      for (int y = std::max(0, yc - 2); y <= std::min(rows - 1, yc + 2); ++y)
+        if (matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, static_cast<int>(std::floor(d)) - tol - 1,
+                    static_cast<int>(std::ceil(d)) + tol + 1, params_.grey_tolerance, params_.match_half_window_px, cols))
+          return true;
+      return false;
+    };
+    struct Outline {
+      double k = 0.0, h = 0.0, frac = 0.0;
+      int end = -1, tested = 0;
+    };
+    for (std::size_t i = 0; i < obstacles.size(); ++i) {
+      for (const int dir : {+1, -1}) {
+        const ObstacleCluster& a = obstacles[i];
+        const int da = a.offset_px;
+        if (da < 2) continue;
+        // A part of a person's size is taken for a person, not for the end of a face.
+        if (a.box.height * baseline_m / da <= params_.weak_max_height_m &&
+            a.box.width * baseline_m / da <= params_.weak_max_width_m)
+          continue;
+        const int xs = dir > 0 ? a.box.x + a.box.width - 1 : a.box.x;
+        const int n_cols = dir > 0 ? cols - 1 - xs : xs;
+        if (n_cols < std::max(16, 2 * a.box.width)) continue;
+        // Plain beside the part over its rows (6 of the next 8 columns): the face shows no texture.
+        int plain_columns = 0;
+        for (int j = 1; j <= 8; ++j) {
+          int f = 0;
+          for (int y = a.box.y; y < a.box.y + a.box.height; ++y)
+            f += labels.ptr<std::uint8_t>(y)[xs + dir * j] != kLabelNone;
+          plain_columns += 4 * f <= a.box.height;
+        }
+        if (plain_columns < 6) continue;
+        const double ca = contactOf(da, xs);
+        Outline best;
+        // One hypothesis: the face's top at the part in row ys, its offset slope k.
+        int best_ys = -1;
+        auto evaluate = [&](int ys, double k) {
+          if (ys < 0 || ys > a.box.y + 2) return;
+          const double h = (ca - ys) * baseline_m / da;
+          if (h < 0.5) return;
+          Outline o{k, h, 0.0, -1, 0};
+          int hits = 0;
+          bool out_of_view = false;  // the outline reached the image's side or top
+          for (int j = 2; j <= n_cols; j += 2) {  // every second column
+            const double d = da + k * j;
+            if (d > max_offset) break;
+            const int x = xs + dir * j;
+            const double yt = contactOf(d, x) - h * d / baseline_m;
+            if (yt < 2.0) {
+              out_of_view = true;
+              break;
+            }
+            out_of_view = j + 2 > n_cols;
+            ++o.tested;
+            if (outlineHit(x, yt, d)) {
+              ++hits;
+              o.end = x;
+            }
+            if (o.tested % 20 == 0 && 5 * hits < 2 * o.tested) break;  // below 40 %: hopeless
+          }
+          if (!out_of_view || o.end < 0 || o.tested < std::max(8, a.box.width)) return;
+          o.frac = static_cast<double>(hits) / o.tested;
+          if (o.frac < params_.plain_min_outline_fraction || o.frac < best.frac ||
+              (o.frac == best.frac && o.tested <= best.tested))
+            return;
+          const int j_end = std::abs(o.end - xs);
+          const double d_end = da + k * j_end;
+          const double top_s = ca - h * da / baseline_m;
+          const double top_e = contactOf(d_end, o.end) - h * d_end / baseline_m;
+          if (d_end - da < 3.0 || std::abs(top_e - top_s) < std::max(6.0, 0.05 * j_end)) return;
+          // Plain below the outline: few features there that do not match the face's offset.
+          long area = 0, other = 0;
+          for (int j = 2; j <= j_end; j += 4) {
+            const double d = da + k * j;
+            const int x = xs + dir * j;
+            const double c = contactOf(d, x);
+            const double yt = c - h * d / baseline_m;
+            const int m = std::max(2, static_cast<int>((c - yt) / 8));
+            const int y_last = std::min(rows - 1, static_cast<int>(std::lround(c)) - m);
+            for (int y = static_cast<int>(std::lround(yt)) + m; y <= y_last; ++y) {
+              ++area;
+              if (labels.ptr<std::uint8_t>(y)[x] == kLabelNone) continue;
+              other += !matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x,
+                                static_cast<int>(std::floor(d)) - tol - 1, static_cast<int>(std::ceil(d)) + tol + 1,
+                                params_.grey_tolerance, params_.match_half_window_px, cols);
+            }
+          }
+          if (area == 0 || other > params_.plain_max_feature_fraction * area) return;
+          best = o;
+          best_ys = ys;
+        };
+        // Coarse to fine. The face's top at the part: from half the part's height above its top
+        // (the part may be a piece of the face's end) down to its top; offset slopes from 0.01 to
+        // 0.5 px per column (a wall along the line of sight 1.1 m to the side of the camera
+        // changes by B / 1.1 m per column).
+        for (int ys = a.box.y + 2; ys >= std::max(0, a.box.y - a.box.height / 2); ys -= 3)
+          for (double k = 0.01; k <= 0.5; k *= 1.2) evaluate(ys, k);
+        if (best.end >= 0) {
+          const int ys_c = best_ys;
+          const double k_c = best.k;
+          for (int ys = ys_c - 2; ys <= ys_c + 2; ++ys)
+            for (double k = k_c / 1.2; k <= std::min(0.5, k_c * 1.2); k *= 1.05) evaluate(ys, k);
+        }
+        if (best.end < 0) continue;
+        // The part grows over the face; other obstacles on the face (at its offset where they
+        // stand) fold into it, those in front of it stay apart.
+        const int j_end = std::abs(best.end - xs);
+        const double d_end = da + best.k * j_end;
+        const double c_end = contactOf(d_end, best.end);
+        const int top = static_cast<int>(std::lround(c_end - best.h * d_end / baseline_m));
+        const int x0 = std::min(a.box.x, best.end), x1 = std::max(a.box.x + a.box.width - 1, best.end);
+        const int y0 = std::max(0, std::min(a.box.y, top));
+        const int y1 = std::max(a.box.y + a.box.height - 1, std::min(rows - 1, static_cast<int>(std::lround(c_end))));
+        ObstacleCluster& grown = obstacles[i];
+        grown.box = cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
+        grown.max_offset_px = std::max(grown.max_offset_px, std::min(max_offset, static_cast<int>(std::ceil(d_end))));
+        auto onFace = [&](const ObstacleCluster& o) {
+          const double xc = o.box.x + 0.5 * (o.box.width - 1);
+          const double d = da + best.k * dir * (xc - xs);
+          return overlapOfSmaller(grown.box, o.box) >= params_.merge_overlap && std::abs(o.offset_px - d) <= tol + 1;
+        };
+        for (bool folded = true; folded;) {
+          folded = false;
+          for (std::size_t j = 0; j < obstacles.size() && !folded; ++j) {
+            if (j == i || !onFace(obstacles[j])) continue;
+            const ObstacleCluster& o = obstacles[j];
+            foldInto(i, o.box, o.min_offset_px, o.max_offset_px, labels, obstacles);
+            folded = true;
+          }
+        }
+        ++joins;
+        break;
+      }
+    }
+  }
   return joins;
 }
 

@@ -98,6 +98,8 @@ struct ObstacleParams {
   double plain_max_width_m = 15.0;           // widest gap joined (a long vehicle's side)
   double plain_height_tolerance = 0.25;      // a receding face's two sides: heights in metres within this
   bool plain_one_sided = true;               // a face with one side found reaches as far as its top outline
+  bool plain_outline_faces = true;           // a plain face receding out of view grows from a part found at
+                                             // its far end along its top outline (offset linear along it)
   bool join_across_nearer = true;            // two parts at one offset, with a nearer obstacle between them hiding
                                              // most of the gap (a vehicle behind a pedestrian), are one obstacle
   // Person-sized clusters below min_peak_matches / min_cluster_features: a person 25-35 m away
@@ -162,6 +164,8 @@ struct ObstacleParams {
     v.field("plain_min_outline_fraction", plain_min_outline_fraction, 0.0, 1.0, "",
             "share of the gap's columns whose top outline matches at the sides' offset");
     v.field("plain_max_width_m", plain_max_width_m, 0.0, 1000.0, "metres", "widest plain gap joined");
+    v.field("plain_outline_faces", plain_outline_faces, 0, 1, "",
+            "grow a part along the top outline of a plain face receding out of view");
     v.field("join_across_nearer", join_across_nearer, 0, 1, "",
             "join two parts at one offset whose gap a nearer obstacle mostly hides");
     v.field("plain_height_tolerance", plain_height_tolerance, 0.0, 10.0, "",

@@ -382,6 +382,39 @@ TEST(SyntheticObstacles, RecedingWallIsOneObstacle) {
   EXPECT_GT(joined, without);
 }
 
+// Long walls whose near end is out of view (they run from 40 m to beside the camera): only a
+// part near the far end shows texture. Grown along the top outline, one obstacle covers the wall.
+StereoPair wallOutOfViewScene(int k) {
+  SyntheticSceneParams p;
+  SyntheticObstacle wall;
+  wall.shape = ObstacleShape::kLongWall;
+  wall.x_m = (k % 2 ? 1.0 : -1.0) * (3.0 + 0.5 * (k % 4));
+  wall.depth_m = 40.0;
+  wall.z_m = 1.0 + 0.5 * wall.depth_m;
+  wall.width_m = 0.3;
+  wall.height_m = 2.0 + 0.25 * (k % 3);
+  wall.texture_seed = static_cast<std::uint32_t>(200 + k);
+  p.obstacles = {wall};
+  return renderSyntheticScene(p, 1);
+}
+
+TEST(SyntheticObstacles, WallOutOfViewGrowsAlongItsTopOutline) {
+  int walls = 0, with_outline = 0, without = 0;
+  for (int k = 0; k < 8; ++k) {
+    const StereoPair pair = wallOutOfViewScene(k);
+    SegmenterParams off;
+    off.obstacles.plain_outline_faces = false;
+    ++walls;
+    with_outline += objectFound(segment(pair), pair, 0);
+    without += objectFound(segment(pair, off), pair, 0);
+  }
+  std::printf("walls out of view found: %d/%d growing along the outline, %d/%d without\n", with_outline, walls,
+              without, walls);
+  // Measured: 2 of 8 with, none without (docs/method.md step 9, plain faces out of view).
+  EXPECT_GE(with_outline, 2);
+  EXPECT_GT(with_outline, without);
+}
+
 // On scenes where receding walls are joined, the parallel segmentation (the obstacle loop's
 // vector row matches among its fast paths) gives the serial reference's labels and obstacles.
 TEST(SyntheticObstacles, JoinedFacesMatchTheSerialReference) {
@@ -413,7 +446,7 @@ TEST(SyntheticObstacles, JoinedFacesMatchTheSerialReference) {
 // on average. A found obstacle is spurious when less than half of its labelled
 // feature pixels lie on true objects.
 // Disabled: the segmentation does not meet these figures yet (measured recall
-// 0.79, 0.50 spurious obstacles per frame; see docs/method.md, "Known
+// 0.80, 0.48 spurious obstacles per frame; see docs/method.md, "Known
 // limits"). Run it with --gtest_also_run_disabled_tests.
 TEST(SyntheticObstacles, DISABLED_RecallAndSpuriousOverManySeeds) {
   constexpr int kSeeds = 50;
