@@ -446,7 +446,7 @@ TEST(SyntheticObstacles, JoinedFacesMatchTheSerialReference) {
 // on average. A found obstacle is spurious when less than half of its labelled
 // feature pixels lie on true objects.
 // Disabled: the segmentation does not meet these figures yet (measured recall
-// 0.80, 0.48 spurious obstacles per frame; see docs/method.md, "Known
+// 0.80, 0.50 spurious obstacles per frame; see docs/method.md, "Known
 // limits"). Run it with --gtest_also_run_disabled_tests.
 TEST(SyntheticObstacles, DISABLED_RecallAndSpuriousOverManySeeds) {
   constexpr int kSeeds = 50;
