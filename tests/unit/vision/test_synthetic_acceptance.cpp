@@ -351,18 +351,24 @@ TEST(SyntheticObstacles, ObstaclesBeyondTheRangeAreNotSearched) {
 }
 
 // Scene k of a set: one 30 m long wall receding in depth, 2 m tall, left or right of the rig.
-StereoPair recedingWallScene(int k) {
+// A scene with one long wall, 0.3 m thick, running `depth_m` along the line of sight.
+StereoPair longWallScene(double x_m, double z_m, double depth_m, double height_m, std::uint32_t texture_seed) {
   SyntheticSceneParams p;
   SyntheticObstacle wall;
   wall.shape = ObstacleShape::kLongWall;
-  wall.x_m = (k % 2 ? 1.0 : -1.0) * (3.5 + 0.5 * (k % 6));
-  wall.depth_m = 30.0;
-  wall.z_m = 8.0 + (k % 3) + 0.5 * wall.depth_m;
+  wall.x_m = x_m;
+  wall.depth_m = depth_m;
+  wall.z_m = z_m;
   wall.width_m = 0.3;
-  wall.height_m = 2.0;
-  wall.texture_seed = static_cast<std::uint32_t>(100 + k);
+  wall.height_m = height_m;
+  wall.texture_seed = texture_seed;
   p.obstacles = {wall};
   return renderSyntheticScene(p, 1);
+}
+
+StereoPair recedingWallScene(int k) {
+  return longWallScene((k % 2 ? 1.0 : -1.0) * (3.5 + 0.5 * (k % 6)), 8.0 + (k % 3) + 15.0, 30.0, 2.0,
+                       static_cast<std::uint32_t>(100 + k));
 }
 
 TEST(SyntheticObstacles, RecedingWallIsOneObstacle) {
@@ -385,17 +391,8 @@ TEST(SyntheticObstacles, RecedingWallIsOneObstacle) {
 // Long walls whose near end is out of view (they run from 40 m to beside the camera): only a
 // part near the far end shows texture. Grown along the top outline, one obstacle covers the wall.
 StereoPair wallOutOfViewScene(int k) {
-  SyntheticSceneParams p;
-  SyntheticObstacle wall;
-  wall.shape = ObstacleShape::kLongWall;
-  wall.x_m = (k % 2 ? 1.0 : -1.0) * (3.0 + 0.5 * (k % 4));
-  wall.depth_m = 40.0;
-  wall.z_m = 1.0 + 0.5 * wall.depth_m;
-  wall.width_m = 0.3;
-  wall.height_m = 2.0 + 0.25 * (k % 3);
-  wall.texture_seed = static_cast<std::uint32_t>(200 + k);
-  p.obstacles = {wall};
-  return renderSyntheticScene(p, 1);
+  return longWallScene((k % 2 ? 1.0 : -1.0) * (3.0 + 0.5 * (k % 4)), 1.0 + 20.0, 40.0, 2.0 + 0.25 * (k % 3),
+                       static_cast<std::uint32_t>(200 + k));
 }
 
 TEST(SyntheticObstacles, WallOutOfViewGrowsAlongItsTopOutline) {
