@@ -1596,13 +1596,14 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         const int x0 = std::min(a.box.x, best.end), x1 = std::max(a.box.x + a.box.width - 1, best.end);
         const int y0 = std::max(0, std::min(a.box.y, top));
         const int y1 = std::max(a.box.y + a.box.height - 1, std::min(rows - 1, static_cast<int>(std::lround(c_end))));
-        ObstacleCluster& grown = obstacles[i];
-        grown.box = cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
-        grown.max_offset_px = std::max(grown.max_offset_px, std::min(max_offset, static_cast<int>(std::ceil(d_end))));
+        obstacles[i].box = cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
+        obstacles[i].max_offset_px =
+            std::max(obstacles[i].max_offset_px, std::min(max_offset, static_cast<int>(std::ceil(d_end))));
+        // (Each fold renumbers the obstacles: the grown one is obstacles[i] again after it.)
         auto onFace = [&](const ObstacleCluster& o) {
           const double xc = o.box.x + 0.5 * (o.box.width - 1);
           const double d = da + best.k * dir * (xc - xs);
-          return overlapOfSmaller(grown.box, o.box) >= params_.merge_overlap && std::abs(o.offset_px - d) <= tol + 1;
+          return overlapOfSmaller(obstacles[i].box, o.box) >= params_.merge_overlap && std::abs(o.offset_px - d) <= tol + 1;
         };
         for (bool folded = true; folded;) {
           folded = false;
