@@ -64,6 +64,19 @@ inline bool pinsOffset(const std::uint8_t* l, int x, int width, int tol) {
   return std::abs(static_cast<int>(l[x + 1]) - static_cast<int>(l[x - 1])) > tol;
 }
 
+// Feature pixels (any label but none) of column x over rows y0..y1, clipped to the image.
+int featuresInColumn(const cv::Mat& labels, int x, int y0, int y1) {
+  int n = 0;
+  for (int y = std::max(0, y0); y <= std::min(labels.rows - 1, y1); ++y)
+    n += labels.ptr<std::uint8_t>(y)[x] != kLabelNone;
+  return n;
+}
+
+// A column is plain over rows y0..y1 when at most a quarter of them are features.
+bool plainColumn(const cv::Mat& labels, int x, int y0, int y1) {
+  return 4 * featuresInColumn(labels, x, y0, y1) <= y1 - y0 + 1;
+}
+
 // Share of features beside a plain gap, over the same rows, above which the surroundings are textured.
 constexpr double kPlainSurroundFraction = 0.2;
 
@@ -1305,8 +1318,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       c.d1 = static_cast<int>(std::ceil(d)) + tol;
       c.margin = std::max(2, (c.bottom - c.top + 1) / 8);
       c.in_gap = (x >= a_end || x < a.box.x) && (x >= f_end || x < f.box.x);
-      for (int y = std::max(0, c.top); y <= std::min(left.rows - 1, c.bottom); ++y)
-        c.features += labels.ptr<std::uint8_t>(y)[x] != kLabelNone;
+      c.features = featuresInColumn(labels, x, c.top, c.bottom);
       features_total += c.features;
       if (c.in_gap) {
         gap_features_total += c.features;
@@ -1423,17 +1435,16 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         ++n_hidden;
         continue;
       }
-      int f = 0;
-      for (int y = ya + m; y <= yb - m; ++y) f += labels.ptr<std::uint8_t>(y)[x] != kLabelNone;
-      if (4 * f > inner) return false;  // neither hidden nor plain: something else stands there
+      // Neither hidden nor plain: something else stands there.
+      if (!plainColumn(labels, x, ya + m, yb - m)) return false;
     }
     return 2 * n_hidden >= gap;
   };
-  for (bool joined = true; joined;) {
+  for (bool joined = measured_ground; joined;) {
     joined = false;
     for (std::size_t i = 0; i < obstacles.size() && !joined; ++i)
       for (std::size_t j = 0; j < obstacles.size() && !joined; ++j) {
-        if (i == j || !measured_ground || !receding(obstacles[i], obstacles[j])) continue;
+        if (i == j || !receding(obstacles[i], obstacles[j])) continue;
         // The earlier (stronger) part keeps its label; the other, and what lies inside it at its
         // offsets, folds into it (an obstacle in front of the face stays apart).
         std::size_t keep = std::min(i, j);
@@ -1444,11 +1455,11 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         ++joins;
       }
   }
-  for (bool joined = params_.join_across_nearer; joined;) {
+  for (bool joined = params_.join_across_nearer && measured_ground; joined;) {
     joined = false;
     for (std::size_t i = 0; i < obstacles.size() && !joined; ++i)
       for (std::size_t j = 0; j < obstacles.size() && !joined; ++j) {
-        if (i == j || !measured_ground || !acrossNearer(obstacles[i], obstacles[j])) continue;
+        if (i == j || !acrossNearer(obstacles[i], obstacles[j])) continue;
         // The earlier (stronger) part keeps its label; the nearer obstacle stays apart.
         std::size_t keep = std::min(i, j);
         const cv::Rect reach = obstacles[i].box | obstacles[j].box;
@@ -1482,12 +1493,15 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       if (c < rows || slope_last <= 1e-3) return static_cast<double>(c);
       return rows - 1 + static_cast<double>(groundRelative(di, x) - g_last) / slope_last;
     };
+    // Pixel (y, x) matches the face's offset d there (+- the tolerance and one more).
+    auto onFaceAt = [&](int y, int x, double d) {
+      return matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, static_cast<int>(std::floor(d)) - tol - 1,
+                     static_cast<int>(std::ceil(d)) + tol + 1, params_.grey_tolerance, params_.match_half_window_px, cols);
+    };
     auto outlineHit = [&](int x, double yt, double d) {
       const int yc = static_cast<int>(std::lround(yt));
       for (int y = std::max(0, yc - 2); y <= std::min(rows - 1, yc + 2); ++y)
-        if (matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, static_cast<int>(std::floor(d)) - tol - 1,
-                    static_cast<int>(std::ceil(d)) + tol + 1, params_.grey_tolerance, params_.match_half_window_px, cols))
-          return true;
+        if (onFaceAt(y, x, d)) return true;
       return false;
     };
     struct Outline {
@@ -1508,12 +1522,8 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         if (n_cols < std::max(16, 2 * a.box.width)) continue;
         // Plain beside the part over its rows (6 of the next 8 columns): the face shows no texture.
         int plain_columns = 0;
-        for (int j = 1; j <= 8; ++j) {
-          int f = 0;
-          for (int y = a.box.y; y < a.box.y + a.box.height; ++y)
-            f += labels.ptr<std::uint8_t>(y)[xs + dir * j] != kLabelNone;
-          plain_columns += 4 * f <= a.box.height;
-        }
+        for (int j = 1; j <= 8; ++j)
+          plain_columns += plainColumn(labels, xs + dir * j, a.box.y, a.box.y + a.box.height - 1);
         if (plain_columns < 6) continue;
         const double ca = contactOf(da, xs);
         Outline best;
@@ -1565,9 +1575,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
             for (int y = static_cast<int>(std::lround(yt)) + m; y <= y_last; ++y) {
               ++area;
               if (labels.ptr<std::uint8_t>(y)[x] == kLabelNone) continue;
-              other += !matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x,
-                                static_cast<int>(std::floor(d)) - tol - 1, static_cast<int>(std::ceil(d)) + tol + 1,
-                                params_.grey_tolerance, params_.match_half_window_px, cols);
+              other += !onFaceAt(y, x, d);
             }
           }
           if (area == 0 || other > params_.plain_max_feature_fraction * area) return;
