@@ -58,6 +58,8 @@ Stats stats(std::vector<double> v) {
   return s;
 }
 
+nlohmann::json toJson(const Stats& s) { return {{"median", s.median}, {"min", s.min}}; }
+
 using Clock = std::chrono::steady_clock;
 
 // What one pass over the frames measured (per frame, milliseconds).
@@ -178,7 +180,7 @@ void runBench(const BenchOptions& opt) {
     if (it == f.stage_ms.end()) continue;
     const Stats s = stats(it->second);
     line(stage, s);
-    stages[stage] = {{"median", s.median}, {"min", s.min}};
+    stages[stage] = toJson(s);
   }
   line("localization", loc);
   line("detection", det);
@@ -230,20 +232,20 @@ void runBench(const BenchOptions& opt) {
     j["frames"] = pairs.size();
     j["threads"] = threads;
     j["stages_ms"] = stages;
-    j["segmentation_ms"] = {{"median", seg.median}, {"min", seg.min}};
-    j["stereobm_ms"] = {{"median", sbm.median}, {"min", sbm.min}};
+    j["segmentation_ms"] = toJson(seg);
+    j["stereobm_ms"] = toJson(sbm);
     j["ratio_vs_stereobm"] = ratio;
-    j["without_obstacles_ms"] = {{"median", pre.median}, {"min", pre.min}};
+    j["without_obstacles_ms"] = toJson(pre);
     j["ratio_without_obstacles_vs_stereobm"] = pre_ratio;
-    j["localization_ms"] = {{"median", loc.median}, {"min", loc.min}};
-    j["detection_ms"] = {{"median", det.median}, {"min", det.min}};
+    j["localization_ms"] = toJson(loc);
+    j["detection_ms"] = toJson(det);
     j["per_frame"] = {{"obstacles", static_cast<double>(f.obstacles) / frames},
                       {"people", static_cast<double>(f.people) / frames},
                       {"hog_calls", static_cast<double>(f.hog_calls) / frames}};
     j["target_definition"] = {
         {"max_obstacles", std::min(max_obstacles, kTargetObstacles)},
-        {"segmentation_ms", {{"median", t_seg.median}, {"min", t_seg.min}}},
-        {"detection_ms", {{"median", t_det.median}, {"min", t_det.min}}},
+        {"segmentation_ms", toJson(t_seg)},
+        {"detection_ms", toJson(t_det)},
         {"ratio_vs_stereobm", t_ratio},
         {"obstacles_per_frame", static_cast<double>(t.obstacles) / frames},
         {"people_per_frame", static_cast<double>(t.people) / frames}};
