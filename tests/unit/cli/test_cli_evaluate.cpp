@@ -1,0 +1,292 @@
+// `stereoguard evaluate` end to end, on synthetic scenes exported by `stereoguard synth`:
+// the real executables write and read the KITTI layout, and every figure of metrics.json
+// is checked against the generator's own truth, rendered here again from the same seeds,
+// and scored here by the KITTI pedestrian protocol written out independently of the
+// evaluator's code.
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "io/synthetic_scene.hpp"
+
+namespace sg {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kExe = SG_STEREOGUARD_EXE;
+constexpr std::uint64_t kFirstSeed = 1000;  // the localization test seeds (never used to fit a parameter)
+constexpr int kFrames = 8;
+
+std::string quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+// Runs stereoguard with `args`; its output goes to DIR/log.txt. Returns the exit status.
+int run(const fs::path& dir, const std::vector<std::string>& args) {
+  std::string cmd = quote(kExe);
+  for (const auto& a : args) cmd += " " + quote(a);
+  cmd += " >>" + quote((dir / "log.txt").string()) + " 2>&1";
+  const int raw = std::system(cmd.c_str());
+  return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+}
+
+nlohmann::json readJson(const fs::path& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+
+struct Detection {
+  std::array<double, 4> box{};
+  double score = 0.0;
+  double distance_m = 0.0;
+};
+
+// frame id -> the detections of a `stereoguard detect` JSON-lines file.
+std::map<std::string, std::vector<Detection>> readDetections(const fs::path& p) {
+  std::map<std::string, std::vector<Detection>> out;
+  std::ifstream in(p);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    const auto j = nlohmann::json::parse(line);
+    auto& frame = out[j.at("frame").get<std::string>()];
+    for (const auto& h : j.at("humans")) {
+      Detection d;
+      for (int k = 0; k < 4; ++k) d.box[static_cast<std::size_t>(k)] = h.at("box").at(k).get<double>();
+      d.score = h.at("score").get<double>();
+      d.distance_m = h.at("distance_m").get<double>();
+      frame.push_back(d);
+    }
+  }
+  return out;
+}
+
+double overlap(const std::array<double, 4>& a, const std::array<double, 4>& b) {
+  const double w = std::min(a[2], b[2]) - std::max(a[0], b[0]);
+  const double h = std::min(a[3], b[3]) - std::max(a[1], b[1]);
+  const double inter = w > 0.0 && h > 0.0 ? w * h : 0.0;
+  const double uni = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter;
+  return uni > 0.0 ? inter / uni : 0.0;
+}
+
+// KITTI pedestrians, moderate: box height >= 25 px, occlusion <= 1, truncation <= 0.3.
+bool counted(const ObjectLabel& l) {
+  return l.type == "Pedestrian" && l.box[3] - l.box[1] >= 25.0 && l.occlusion <= 1 && l.truncation <= 0.3;
+}
+bool ignoredPerson(const ObjectLabel& l) {
+  return !counted(l) && (l.type == "Pedestrian" || l.type == "Cyclist" || l.type == "Person_sitting");
+}
+
+// The protocol's figures over every detection (no score threshold).
+struct Scored {
+  int ground_truth = 0, detections = 0, true_positives = 0, false_positives = 0;
+  std::vector<double> distance_errors;  // |Z - Z_label| / Z_label of the true positives
+};
+
+// Greedy matching from the highest score at IoU >= 0.5, first to counted people, then to people
+// the protocol ignores (too small, occluded, truncated, riders); unmatched detections lower than
+// 25 px are ignored too (synthetic scenes have no DontCare regions).
+void score(const std::vector<ObjectLabel>& labels, std::vector<Detection> dets, Scored& s) {
+  std::stable_sort(dets.begin(), dets.end(), [](const Detection& a, const Detection& b) { return a.score > b.score; });
+  std::vector<char> taken(labels.size(), 0);
+  for (const ObjectLabel& l : labels) s.ground_truth += counted(l) ? 1 : 0;
+  s.detections += static_cast<int>(dets.size());
+  for (const Detection& d : dets) {
+    int outcome = 0;  // 0 false positive, 1 true positive, 2 ignored
+    for (const bool want_counted : {true, false}) {
+      double best = 0.5;
+      int best_label = -1;
+      for (std::size_t i = 0; i < labels.size(); ++i) {
+        const bool role = want_counted ? counted(labels[i]) : ignoredPerson(labels[i]);
+        if (!role || taken[i]) continue;
+        if (const double o = overlap(d.box, labels[i].box); o >= best) {
+          best = o;
+          best_label = static_cast<int>(i);
+        }
+      }
+      if (best_label < 0) continue;
+      taken[static_cast<std::size_t>(best_label)] = 1;
+      outcome = want_counted ? 1 : 2;
+      if (want_counted) {
+        const double z = labels[static_cast<std::size_t>(best_label)].location_m[2];
+        s.distance_errors.push_back(std::abs(d.distance_m - z) / z);
+      }
+      break;
+    }
+    if (outcome == 0 && d.box[3] - d.box[1] < 25.0) outcome = 2;
+    s.true_positives += outcome == 1 ? 1 : 0;
+    s.false_positives += outcome == 0 ? 1 : 0;
+  }
+}
+
+// Nearest-rank median: the smallest value with at least half of the values at or below it.
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const auto rank = static_cast<std::size_t>(std::ceil(0.5 * static_cast<double>(v.size())));
+  return v[std::max<std::size_t>(rank, 1) - 1];
+}
+
+class EvaluateOnExportedScenes : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("sg_cli_evaluate_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    scenes_ = (dir_ / "scenes").string();
+    ASSERT_EQ(run(dir_, {"synth", "--out", scenes_, "--frames", std::to_string(kFrames), "--seed",
+                         std::to_string(kFirstSeed)}),
+              0)
+        << log();
+    // The generator's truth, from the same seeds at the same size as the export.
+    for (int i = 0; i < kFrames; ++i) {
+      const std::uint64_t seed = kFirstSeed + static_cast<std::uint64_t>(i);
+      const StereoPair pair = renderSyntheticScene(randomSceneParams(seed, 1242, 375), seed);
+      truth_[pair.id] = pair.labels;
+    }
+  }
+  void TearDown() override {
+    if (!HasFailure()) fs::remove_all(dir_);
+  }
+  std::string log() const {
+    std::ifstream in(dir_ / "log.txt");
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }
+  const nlohmann::json& method(const nlohmann::json& metrics, const std::string& name) const {
+    return metrics.at("methods").at(name);
+  }
+
+  fs::path dir_;
+  std::string scenes_;
+  std::map<std::string, std::vector<ObjectLabel>> truth_;
+};
+
+TEST_F(EvaluateOnExportedScenes, DetectorFiguresAreTheProtocolAppliedToTheGeneratorTruth) {
+  const std::string dets = (dir_ / "detections.jsonl").string();
+  ASSERT_EQ(run(dir_, {"detect", "--source", "kitti:" + scenes_, "--out", dets}), 0) << log();
+  const std::string out = (dir_ / "eval").string();
+  ASSERT_EQ(run(dir_, {"evaluate", "--source", "kitti:" + scenes_, "--detections", dets, "--no-hog", "--out", out}), 0)
+      << log();
+
+  // The same detections scored here against the rendered truth.
+  const auto detections = readDetections(dets);
+  ASSERT_EQ(detections.size(), truth_.size()) << "one record per exported frame";
+  Scored s;
+  for (const auto& [id, labels] : truth_) {
+    ASSERT_TRUE(detections.count(id)) << "no detections record for frame " << id;
+    score(labels, detections.at(id), s);
+  }
+  ASSERT_GT(s.ground_truth, 0) << "the seeds must show counted people";
+  ASSERT_GT(s.true_positives, 0) << "the detector finds none of them";
+
+  const auto metrics = readJson(fs::path(out) / "metrics.json");
+  EXPECT_EQ(metrics.at("frames").get<int>(), kFrames);
+  const auto& m = method(metrics, "stereoguard");
+  EXPECT_EQ(m.at("ground_truth").get<int>(), s.ground_truth);
+  EXPECT_EQ(m.at("detections").get<int>(), s.detections);
+  EXPECT_EQ(m.at("true_positives").get<int>(), s.true_positives);
+  EXPECT_EQ(m.at("false_positives").get<int>(), s.false_positives);
+  EXPECT_NEAR(m.at("recall").get<double>(), static_cast<double>(s.true_positives) / s.ground_truth, 1e-12);
+  EXPECT_NEAR(m.at("fp_per_frame").get<double>(), static_cast<double>(s.false_positives) / kFrames, 1e-12);
+  // The label files carry distances to the centimetre: the errors agree to that.
+  const auto& distance = m.at("distance_rel_error").at("all");
+  EXPECT_EQ(distance.at("count").get<int>(), static_cast<int>(s.distance_errors.size()));
+  EXPECT_NEAR(distance.at("median").get<double>(), median(s.distance_errors), 2e-3);
+  // Recall by true distance: every counted person in the bin of its generated depth.
+  std::array<int, 4> people{}, found{};
+  for (const auto& [id, labels] : truth_) {
+    for (const ObjectLabel& l : labels) {
+      if (!counted(l)) continue;
+      const double z = l.location_m[2];
+      const std::size_t bin = z < 10.0 ? 0 : z < 20.0 ? 1 : z < 30.0 ? 2 : 3;
+      ++people[bin];
+      std::vector<ObjectLabel> alone = {l};
+      Scored hit;
+      score(alone, detections.at(id), hit);
+      found[bin] += hit.true_positives;  // an upper bound: other people may take its detection
+    }
+  }
+  const auto& by_range = m.at("recall_by_range");
+  ASSERT_EQ(by_range.size(), 4u);
+  int found_total = 0;
+  for (std::size_t b = 0; b < 4; ++b) {
+    EXPECT_EQ(by_range.at(b).at("pedestrians").get<int>(), people[b]) << "range bin " << b;
+    EXPECT_LE(by_range.at(b).at("found").get<int>(), found[b]) << "range bin " << b;
+    found_total += by_range.at(b).at("found").get<int>();
+  }
+  EXPECT_EQ(found_total, s.true_positives);
+}
+
+TEST_F(EvaluateOnExportedScenes, TheGeneratorTruthAsDetectionsScoresPerfectly) {
+  // Every labelled person written as a detection at its true box and distance.
+  const fs::path dets = dir_ / "truth.jsonl";
+  {
+    std::ofstream f(dets);
+    for (const auto& [id, labels] : truth_) {
+      nlohmann::json frame = {{"frame", id}, {"width", 1242}, {"height", 375}, {"humans", nlohmann::json::array()}};
+      for (const ObjectLabel& l : labels) {
+        if (l.type != "Pedestrian") continue;
+        frame["humans"].push_back({{"box", l.box}, {"score", 0.9}, {"distance_m", l.location_m[2]}});
+      }
+      f << frame.dump() << "\n";
+    }
+  }
+  const std::string out = (dir_ / "eval").string();
+  ASSERT_EQ(run(dir_, {"evaluate", "--source", "kitti:" + scenes_, "--detections", dets.string(), "--no-hog", "--out",
+                       out}),
+            0)
+      << log();
+  int people = 0;
+  for (const auto& [id, labels] : truth_)
+    for (const ObjectLabel& l : labels) people += counted(l) ? 1 : 0;
+  ASSERT_GT(people, 0);
+  const auto metrics = readJson(fs::path(out) / "metrics.json");
+  const auto& m = method(metrics, "stereoguard");
+  EXPECT_EQ(m.at("ground_truth").get<int>(), people);
+  EXPECT_EQ(m.at("true_positives").get<int>(), people);
+  EXPECT_EQ(m.at("false_positives").get<int>(), 0);
+  EXPECT_DOUBLE_EQ(m.at("recall").get<double>(), 1.0);
+  EXPECT_NEAR(m.at("average_precision_40").get<double>(), 1.0, 1e-9);
+  EXPECT_NEAR(m.at("distance_rel_error").at("all").at("median").get<double>(), 0.0, 2e-3);
+}
+
+TEST_F(EvaluateOnExportedScenes, RunningTheDetectorItselfGivesTheSameFiguresAndTheHogBaseline) {
+  const std::string dets = (dir_ / "detections.jsonl").string();
+  ASSERT_EQ(run(dir_, {"detect", "--source", "kitti:" + scenes_, "--out", dets}), 0) << log();
+  const std::string from_file = (dir_ / "from_file").string();
+  const std::string itself = (dir_ / "itself").string();
+  ASSERT_EQ(run(dir_, {"evaluate", "--source", "kitti:" + scenes_, "--detections", dets, "--no-hog", "--out",
+                       from_file}),
+            0)
+      << log();
+  ASSERT_EQ(run(dir_, {"evaluate", "--source", "kitti:" + scenes_, "--out", itself}), 0) << log();
+  const auto a = readJson(fs::path(from_file) / "metrics.json");
+  const auto b = readJson(fs::path(itself) / "metrics.json");
+  for (const char* key : {"ground_truth", "detections", "true_positives", "false_positives"})
+    EXPECT_EQ(method(a, "stereoguard").at(key), method(b, "stereoguard").at(key)) << key;
+  EXPECT_EQ(method(a, "stereoguard").at("average_precision_40"), method(b, "stereoguard").at("average_precision_40"));
+  // The full-frame HOG baseline, side by side, counts the same people.
+  const auto& hog = method(b, "OpenCV HOG, full frame");
+  EXPECT_EQ(hog.at("frames").get<int>(), kFrames);
+  EXPECT_EQ(hog.at("ground_truth"), method(b, "stereoguard").at("ground_truth"));
+  EXPECT_TRUE(fs::exists(fs::path(itself) / "report.html"));
+}
+
+}  // namespace
+}  // namespace sg
