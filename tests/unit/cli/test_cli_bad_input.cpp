@@ -15,6 +15,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "cli_harness.hpp"
+
 namespace sg {
 namespace {
 
@@ -37,21 +39,9 @@ std::string slurp(const fs::path& p) {
   return s.str();
 }
 
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
 class CliTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("sg_cli_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
+  void SetUp() override { dir_ = test::scratchDirForThisTest("sg_cli"); }
   void TearDown() override { fs::remove_all(dir_); }
 
   std::string path(const std::string& name) const { return (dir_ / name).string(); }
@@ -70,14 +60,11 @@ class CliTest : public ::testing::Test {
   }
 
   RunResult run(const std::vector<std::string>& args) const {
-    std::string cmd = quote(kExe);
-    for (const auto& a : args) cmd += " " + quote(a);
     const fs::path out = dir_ / "stdout.txt";
     const fs::path err = dir_ / "stderr.txt";
-    cmd += " >" + quote(out.string()) + " 2>" + quote(err.string());
-    const int raw = std::system(cmd.c_str());
     RunResult r;
-    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+    r.status = test::runExecutable(kExe, args,
+                                   ">" + test::shellQuote(out.string()) + " 2>" + test::shellQuote(err.string()));
     r.out = slurp(out);
     r.err = slurp(err);
     std::istringstream lines(r.err);

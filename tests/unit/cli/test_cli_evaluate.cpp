@@ -3,8 +3,6 @@
 // is checked against the generator's own truth, rendered here again from the same seeds,
 // and scored here by the KITTI pedestrian protocol written out independently of the
 // evaluator's code.
-#include <sys/wait.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -19,6 +17,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "cli_harness.hpp"
 #include "io/synthetic_scene.hpp"
 
 namespace sg {
@@ -30,19 +29,9 @@ const std::string kExe = SG_STEREOGUARD_EXE;
 constexpr std::uint64_t kFirstSeed = 1000;  // the localization test seeds (never used to fit a parameter)
 constexpr int kFrames = 8;
 
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
 // Runs stereoguard with `args`; its output goes to DIR/log.txt. Returns the exit status.
 int run(const fs::path& dir, const std::vector<std::string>& args) {
-  std::string cmd = quote(kExe);
-  for (const auto& a : args) cmd += " " + quote(a);
-  cmd += " >>" + quote((dir / "log.txt").string()) + " 2>&1";
-  const int raw = std::system(cmd.c_str());
-  return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  return test::runExecutable(kExe, args, ">>" + test::shellQuote((dir / "log.txt").string()) + " 2>&1");
 }
 
 nlohmann::json readJson(const fs::path& p) {
@@ -144,11 +133,7 @@ double median(std::vector<double> v) {
 class EvaluateOnExportedScenes : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("sg_cli_evaluate_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = test::scratchDirForThisTest("sg_cli_evaluate");
     scenes_ = (dir_ / "scenes").string();
     ASSERT_EQ(run(dir_, {"synth", "--out", scenes_, "--frames", std::to_string(kFrames), "--seed",
                          std::to_string(kFirstSeed)}),
