@@ -1,8 +1,6 @@
 // The real `stereoguard` executable on bad input: exit status 2 and one clear
 // line on stderr naming the file or field; never a crash. A good run of the
 // same command guards against the bad cases passing for the wrong reason.
-#include <sys/wait.h>
-
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
