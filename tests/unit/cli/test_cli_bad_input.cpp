@@ -222,12 +222,13 @@ TEST_F(CliTest, DetectMalformedCalibrationOverride) {
 // bench: the detection's time next to the segmentation's, and the frames measured again
 // as the speed targets count them (at most 5 obstacles).
 TEST_F(CliTest, BenchReportsTheDetectionAndTheTargetsCount) {
-  const RunResult r = run({"bench", "--source", "kitti:" + kData + "/kitti/kitti_rig", "--frames", "2", "--threads",
-                           "1", "--json", path("bench.json")});
+  const RunResult r = run({"bench", "--source", "kitti:" + kData + "/kitti/kitti_rig", "--frames", "2", "--rounds", "2",
+                           "--threads", "1", "--json", path("bench.json")});
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("detection (segmentation + localization) median"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("as the speed targets count it (up to 5 obstacles"), std::string::npos) << r.out;
   const nlohmann::json j = nlohmann::json::parse(slurp(path("bench.json")));
+  EXPECT_EQ(j["rounds"].get<int>(), 2);
   // Each frame's detection is its segmentation plus its localization: order statistics keep that.
   EXPECT_GE(j["detection_ms"]["median"].get<double>(), j["segmentation_ms"]["median"].get<double>());
   EXPECT_GT(j["localization_ms"]["min"].get<double>(), 0.0);
@@ -236,6 +237,10 @@ TEST_F(CliTest, BenchReportsTheDetectionAndTheTargetsCount) {
   EXPECT_LE(t["obstacles_per_frame"].get<double>(), 5.0);
   EXPECT_GE(t["detection_ms"]["median"].get<double>(), t["segmentation_ms"]["median"].get<double>());
   EXPECT_GT(t["ratio_vs_stereobm"].get<double>(), 0.0);
+}
+
+TEST_F(CliTest, BenchWithoutARoundIsBadUsage) {
+  expectBadInput(run({"bench", "--source", "synthetic:1", "--frames", "1", "--rounds", "0"}), {"--rounds", "0"});
 }
 
 TEST_F(CliTest, BenchConfigWithAnUnknownGroupNamesIt) {
