@@ -170,6 +170,18 @@ std::optional<GroundLine> GroundEstimator::hough(const std::vector<std::uint8_t>
 namespace {
 // Bin shift of a (offset, slope) pair whose rounding depends on the row (below).
 constexpr int kRowDependentShift = std::numeric_limits<int>::min() / 2;
+// Slopes per group of houghFast's branch and bound, level by level (each size divides the
+// one before it): a group of the first level is split into its groups of the next one, a
+// group of the last level is scanned, a group in between is split when its bound is below
+// kSplitBelow times the best sum found (a loose bound, its groups likely dropped: far from
+// the ground line's slope, at small slopes where a vote's bin moves fast), else scanned.
+// Measured on the KITTI pairs (houghFast's instructions under callgrind, docs/performance.md):
+// 32 / 8 / 4 and 1.5 take 113 M, 32 / 8 alone 125-130 M, 16 / 4 or 32 / 4 130 M, and a full
+// scan 247 M.
+constexpr int kGroupLevels[] = {32, 8, 4};
+constexpr int kLevels = 3;
+constexpr double kSplitBelow = 1.5;
+static_assert(kGroupLevels[0] % kGroupLevels[1] == 0 && kGroupLevels[1] % kGroupLevels[2] == 0);
 }  // namespace
 
 std::optional<GroundLine> GroundEstimator::houghFast(const std::vector<std::uint8_t>& use, int rows, int offsets) {
@@ -178,8 +190,26 @@ std::optional<GroundLine> GroundEstimator::houghFast(const std::vector<std::uint
   // order of the votes it receives, which stays the peaks' order when the loops
   // are swapped: here slope by slope, each slope's votes landing in one row of
   // n_bins floats (in L1), and only three slope rows kept for the 3x3 sums.
+  // Most slopes cannot hold the maximum: a group of consecutive slopes whose bound
+  // (below) is under the best sum found so far is not voted at all.
   const int n_slopes = static_cast<int>(std::floor((params_.max_slope - params_.min_slope) / params_.slope_step)) + 1;
   const int n_bins = 2 * rows;
+  // Groups numbered level by level: level l's groups from level_first[l].
+  int level_first[kLevels + 1] = {};
+  for (int l = 0; l < kLevels; ++l)
+    level_first[l + 1] = level_first[l] + (n_slopes + kGroupLevels[l] - 1) / kGroupLevels[l];
+  const int n_groups = level_first[kLevels];
+  const int n_coarse = level_first[1];
+  auto levelOf = [&](int g) {
+    int l = 0;
+    while (g >= level_first[l + 1]) ++l;
+    return l;
+  };
+  auto groupSlopes = [&](int g, int& k0, int& k1) {
+    const int l = levelOf(g);
+    k0 = (g - level_first[l]) * kGroupLevels[l];
+    k1 = std::min(k0 + kGroupLevels[l], n_slopes) - 1;
+  };
   if (slope_table_offsets_ != offsets || bin_shift_.size() != static_cast<std::size_t>(offsets) * n_slopes) {
     // The reference's bin is lround(row - offset / s) + rows. Where offset / s = q is
     // farther than 1e-6 from a half-integer, row - q (|row - q| < 2^31, so rounded by at
@@ -200,6 +230,44 @@ std::optional<GroundLine> GroundEstimator::houghFast(const std::vector<std::uint
             shift;
       }
     }
+    // Per group and offset, what the group's bound needs of a vote (see groupBound): the
+    // windows of slopes k0 .. k1 use slopes k0 - 1 .. k1 + 1, over which a vote's bin goes
+    // from row + rows + shift at the first to row + rows + shift at the last (a bin is
+    // non-decreasing in the slope for offsets >= 1); the windows b it can reach run from
+    // one bin before the first to one after the last. Where the table has no shift, the
+    // reference's bin lround(row - q) + rows lies within row + rows - ceil(q) - 1 ..
+    // row + rows - floor(q) + 1. And a vote's bin moves by the same integer step whatever
+    // its row: moving by 2 bins or more per slope (3 or more), it falls into the three
+    // bins of a window at two (one) of the window's three slopes at most.
+    group_spans_.resize(static_cast<std::size_t>(n_groups) * static_cast<std::size_t>(offsets));
+    auto shiftAt = [&](int k, int d) {
+      return bin_shift_[static_cast<std::size_t>(k) * static_cast<std::size_t>(offsets) + static_cast<std::size_t>(d)];
+    };
+    auto shiftBelow = [&](int k, int d, bool upper) {
+      const int shift = shiftAt(k, d);
+      if (shift != kRowDependentShift) return shift;
+      const double q = d / (params_.min_slope + k * params_.slope_step);
+      if (!(q < 0x1p30)) return -(1 << 30);  // below every bin
+      return upper ? -static_cast<int>(std::floor(q)) + 1 : -static_cast<int>(std::ceil(q)) - 1;
+    };
+    for (int g = 0; g < n_groups; ++g) {
+      int k0 = 0, k1 = 0;
+      groupSlopes(g, k0, k1);
+      const int k_first = std::max(k0 - 1, 0), k_last = std::min(k1 + 1, n_slopes - 1);
+      for (int d = 0; d < offsets; ++d) {
+        GroupSpan& span = group_spans_[static_cast<std::size_t>(g) * static_cast<std::size_t>(offsets) +
+                                       static_cast<std::size_t>(d)];
+        span.first = shiftBelow(k_first, d, false) - 1;
+        span.end = shiftBelow(k_last, d, true) + 2;
+        int step = std::numeric_limits<int>::max();
+        bool exact = shiftAt(k_first, d) != kRowDependentShift;
+        for (int k = k_first + 1; k <= k_last; ++k) {
+          exact = exact && shiftAt(k, d) != kRowDependentShift;
+          step = std::min(step, shiftAt(k, d) - shiftAt(k - 1, d));
+        }
+        span.repeats = !exact ? 3.0 : step >= 3 ? 1.0 : step == 2 ? 2.0 : 3.0;
+      }
+    }
     slope_table_offsets_ = offsets;
   }
   // The voting peaks, in order: row + rows, offset, weight (capacity for every peak
@@ -211,12 +279,16 @@ std::optional<GroundLine> GroundEstimator::houghFast(const std::vector<std::uint
   vote_base_.clear();
   vote_offset_.clear();
   vote_weight_.clear();
+  double total_weight = 0.0;
+  bool weights_bounded = true;  // every weight finite and >= 0 (as row peaks' scores are)
   for (std::size_t i = 0; i < peaks_.size(); ++i) {
     const Peak& p = peaks_[i];
     if (!use[i] || p.offset < 1 || p.offset >= offsets) continue;  // offset 0 is infinity: no slope information
     vote_base_.push_back(p.row + rows);
     vote_offset_.push_back(p.offset);
     vote_weight_.push_back(p.weight);
+    total_weight += static_cast<double>(p.weight);
+    weights_bounded = weights_bounded && p.weight >= 0.0f && std::isfinite(p.weight);
   }
   if (vote_base_.empty()) return std::nullopt;
   const int n_votes = static_cast<int>(vote_base_.size());
@@ -248,30 +320,112 @@ std::optional<GroundLine> GroundEstimator::houghFast(const std::vector<std::uint
     }
   };
 
+  // Bound of every 3x3 sum of group g: each vote adds its weight, at most `repeats` times,
+  // only to the windows b its span reaches, so the largest sum of these weights over b (a
+  // difference array over the bins, in double; spans clipped to the bins, which only
+  // widens them) bounds the real sums of the group's windows. A float sum exceeds its real
+  // sum by at most the factor (1 + 2^-24)^h, h the additions a vote goes through (at most
+  // n_votes + 8: its bin, then the window), below 1 + 2 h 2^-24 while h 2^-24 < 1/2; 1e-3
+  // more on top. The double sums' own rounding stays far below 1e-9 of the total weight.
+  // Without a bound (a weight not finite or negative, too many votes, or sums that could
+  // overflow a float), +infinity.
+  const double rounding = 2.0 * (n_votes + 8.0) * 0x1p-24;
+  const bool bounded = weights_bounded && rounding < 1e-2 && total_weight < 1e37;
+  const double relative_margin = 1.0 + 1e-3 + rounding;
+  const double absolute_margin = 1e-9 * total_weight;
+  bound_diff_.resize(static_cast<std::size_t>(n_bins) + 1);
+  auto groupBound = [&](int g) -> double {
+    if (!bounded) return std::numeric_limits<double>::infinity();
+    double* diff = bound_diff_.data();
+    std::fill(diff, diff + n_bins + 1, 0.0);
+    const GroupSpan* spans = &group_spans_[static_cast<std::size_t>(g) * static_cast<std::size_t>(offsets)];
+    for (int i = 0; i < n_votes; ++i) {
+      const GroupSpan& span = spans[offset[i]];
+      const int first = std::clamp(base[i] + span.first, 0, n_bins);
+      const int end = std::clamp(base[i] + span.end, 0, n_bins);
+      const double w = static_cast<double>(weight[i]) * span.repeats;
+      diff[first] += w;
+      diff[end] -= w;
+    }
+    double run = 0.0, largest = 0.0;
+    for (int b = 0; b < n_bins; ++b) {
+      run += diff[b];
+      largest = std::max(largest, run);
+    }
+    return largest * relative_margin + absolute_margin;
+  };
+
   // 3x3 sums in the reference's order (slopes k-1, k, k+1; bins b-1, b, b+1); the
-  // reference keeps the first maximum in slope-major order, as this scan does.
+  // reference keeps the first maximum in slope-major order. Within a group the scan is
+  // the reference's; a group's first maximum replaces the best when larger, or equal and
+  // at a smaller slope (groups are visited by bound, not in slope order).
   float best = 0.0f;
   int best_k = -1, best_b = -1;
-  float* prev = zero_row;
-  float* cur = ring[0];
-  vote(0, cur);
-  for (int k = 0; k < n_slopes; ++k) {
-    float* next = zero_row;
-    if (k + 1 < n_slopes) {
-      next = ring[(k + 1) % 3];
-      vote(k + 1, next);
+  auto scanGroup = [&](int k0, int k1) {
+    float* prev = zero_row;
+    if (k0 > 0) {
+      prev = ring[(k0 - 1) % 3];
+      vote(k0 - 1, prev);
     }
-    float* out = window_sums_.data();
-    // Largest sum of this slope with the sums (exact: a maximum does not round); most
-    // slopes cannot change the best and are not scanned.
-    const float row_max = simd::houghWindowSums(prev, cur, next, n_bins, out);
-    if (row_max > best) {
-      best = row_max;
-      best_k = k;
-      best_b = static_cast<int>(std::find(out, out + n_bins, row_max) - out);
+    float* cur = ring[k0 % 3];
+    vote(k0, cur);
+    float group_best = 0.0f;
+    int group_k = -1, group_b = -1;
+    for (int k = k0; k <= k1; ++k) {
+      float* next = zero_row;
+      if (k + 1 < n_slopes) {
+        next = ring[(k + 1) % 3];
+        vote(k + 1, next);
+      }
+      float* out = window_sums_.data();
+      // Largest sum of this slope with the sums (exact: a maximum does not round); most
+      // slopes cannot change the group's best and are not scanned.
+      const float row_max = simd::houghWindowSums(prev, cur, next, n_bins, out);
+      if (row_max > group_best) {
+        group_best = row_max;
+        group_k = k;
+        group_b = static_cast<int>(std::find(out, out + n_bins, row_max) - out);
+      }
+      prev = cur;
+      cur = next;
     }
-    prev = cur;
-    cur = next;
+    if (group_k >= 0 && (group_best > best || (group_best == best && group_k < best_k))) {
+      best = group_best;
+      best_k = group_k;
+      best_b = group_b;
+    }
+  };
+
+  // Branch and bound, best first: of the open groups (at first those of the first level),
+  // the one with the largest bound is taken and split into its groups of the next level
+  // or scanned (kGroupLevels); a group whose bound is below the best sum found (so are all
+  // its sums: neither a larger maximum nor an equal earlier one) is dropped, and the
+  // search ends when the largest open bound is. Which groups are split changes only the
+  // work: every slope is scanned or in a dropped group.
+  open_groups_.reserve(static_cast<std::size_t>(n_groups));
+  open_groups_.clear();
+  for (int g = 0; g < n_coarse; ++g) open_groups_.push_back(OpenGroup{groupBound(g), g});
+  while (!open_groups_.empty()) {
+    std::size_t top = 0;
+    for (std::size_t j = 1; j < open_groups_.size(); ++j)
+      if (open_groups_[j].bound > open_groups_[top].bound) top = j;
+    const OpenGroup group = open_groups_[top];
+    if (group.bound < static_cast<double>(best)) break;
+    open_groups_[top] = open_groups_.back();
+    open_groups_.pop_back();
+    int k0 = 0, k1 = 0;
+    groupSlopes(group.group, k0, k1);
+    const int level = levelOf(group.group);
+    const bool loose = best > 0.0f && group.bound < kSplitBelow * static_cast<double>(best);
+    if (level == kLevels - 1 || (level > 0 && !loose)) {
+      scanGroup(k0, k1);
+      continue;
+    }
+    const int size = kGroupLevels[level + 1];
+    for (int f = level_first[level + 1] + k0 / size; f <= level_first[level + 1] + k1 / size; ++f) {
+      const double bound = groupBound(f);
+      if (bound >= static_cast<double>(best)) open_groups_.push_back(OpenGroup{bound, f});
+    }
   }
   if (best_k < 0) return std::nullopt;
   GroundLine line;
@@ -702,6 +856,8 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
   const int offsets = score.cols;
   main_line_.reset();
   second_line_.reset();
+  main_hough_.reset();
+  second_hough_.reset();
   if (reference)
     findPeaksReference(score);
   else
@@ -709,6 +865,7 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
 
   use_.assign(peaks_.size(), 1);
   std::optional<GroundLine> l1 = houghOf(use_, rows, offsets);
+  main_hough_ = l1;
   bool measured = false;
   if (l1) {
     int row_begin = static_cast<int>(std::ceil(l1->horizon_row));
@@ -735,6 +892,7 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
         use_[i] = p.row > l1->horizon_row && std::abs(p.offset - l1->offsetAt(p.row)) > tol;
       }
       std::optional<GroundLine> l2 = houghOf(use_, rows, offsets);
+      second_hough_ = l2;
       if (l2 && std::abs(l2->slope - l1->slope) > 0.05 * l1->slope) {
         const double yj = (l1->slope * l1->horizon_row - l2->slope * l2->horizon_row) / (l1->slope - l2->slope);
         const int top = static_cast<int>(std::ceil(std::min(l1->horizon_row, l2->horizon_row)));

@@ -116,6 +116,10 @@ class GroundEstimator {
   // The main (first) line of the last compute, when measured.
   const std::optional<GroundLine>& mainLine() const { return main_line_; }
   const std::optional<GroundLine>& secondLine() const { return second_line_; }
+  // The Hough maxima of the last compute, before the refit: the first pass's, and the
+  // second pass's (on the peaks the first line leaves) when it ran.
+  const std::optional<GroundLine>& mainHoughLine() const { return main_hough_; }
+  const std::optional<GroundLine>& secondHoughLine() const { return second_hough_; }
 
   // Transversal slope: fills ground.offset_per_column / reference_column from the
   // offsets of column strips of the ground rows around the line (feature images).
@@ -203,12 +207,27 @@ class GroundEstimator {
   std::vector<float> vote_weight_;
   std::vector<float> slope_rows_;       // Hough accumulator rows of three slopes and a zero row
   std::vector<float> window_sums_;      // 3x3 sums of one slope
+  // houghFast's branch and bound over groups of consecutive slopes.
+  struct GroupSpan {
+    int first;       // a vote's windows run from bin row + rows + first ...
+    int end;         // ... to before row + rows + end
+    double repeats;  // slopes of one window at which a vote can fall into it (1 .. 3)
+  };
+  std::vector<GroupSpan> group_spans_;  // per group (level by level) and offset
+  std::vector<double> bound_diff_;      // a group's bound: difference array over the bins
+  struct OpenGroup {
+    double bound;
+    int group;
+  };
+  std::vector<OpenGroup> open_groups_;  // groups neither scanned nor dropped
   std::vector<float> background_sums_;
   std::vector<double> roll_sorted_;
   std::vector<std::uint8_t> roll_right_;  // padded right row
   std::vector<int> roll_counts_;
   std::optional<GroundLine> main_line_;
   std::optional<GroundLine> second_line_;
+  std::optional<GroundLine> main_hough_;
+  std::optional<GroundLine> second_hough_;
 };
 
 }  // namespace sg

@@ -301,6 +301,88 @@ TEST(FastGround, HoughOnRandomScoresMatchesTheReference) {
   EXPECT_GT(lines, 100);
 }
 
+// Correlation images that are row peaks only (spikes on zero rows, each a local maximum
+// above the floor): the Hough votes are chosen peak by peak. Weights of a few powers of
+// two make the float sums exact, so that many 3x3 sums are equal and the first maximum in
+// slope order decides; rows copied to other rows and peaks repeated on a line pile votes
+// up; large offsets in the upper rows put votes below the bins at small slopes. The Hough
+// maxima of both passes (houghFast's branch and bound over groups of slopes against the
+// reference's full scan) are the same bins.
+TEST(FastGround, HoughOnCraftedPeaksMatchesTheReference) {
+  cv::RNG rng(20261201);
+  const StereoRig rig;
+  auto sameLine = [](const std::optional<GroundLine>& a, const std::optional<GroundLine>& b) {
+    if (a.has_value() != b.has_value()) return false;
+    return !a || (a->slope == b->slope && a->horizon_row == b->horizon_row);
+  };
+  int lines = 0, second_lines = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const int rows = 10 + static_cast<int>(rng.uniform(0, 150));
+    const int offsets = 4 + static_cast<int>(rng.uniform(0, 160));
+    cv::Mat score(rows, offsets, CV_32F, cv::Scalar(0.0f));
+    const bool exact_weights = trial % 2 == 0;
+    auto weight = [&] {
+      if (exact_weights) return std::ldexp(1.0f, static_cast<int>(rng.uniform(-2, 1)));  // 0.25, 0.5, 1
+      return 0.01f + static_cast<float>(rng.uniform(0.0, 1.0));
+    };
+    // Random peaks: up to four per row, at offsets two apart or more (each one a local maximum).
+    for (int y = 0; y < rows; ++y) {
+      const int n = static_cast<int>(rng.uniform(0, 5));
+      for (int j = 0; j < n; ++j) {
+        const int d = 2 * static_cast<int>(rng.uniform(0, (offsets + 1) / 2));
+        if (d < offsets) score.at<float>(y, d) = weight();
+      }
+    }
+    // One or two lines d = s (y - h) of equal weights, some of their rows repeated.
+    for (int line = 0; line < 1 + trial % 2; ++line) {
+      const double s = rng.uniform(0.03, 1.6);
+      const double h = rng.uniform(-rows, rows);
+      const float w = exact_weights ? 1.0f : weight();
+      for (int y = 0; y < rows; ++y) {
+        const long d = std::lround(s * (y - h));
+        if (d < 1 || d >= offsets || rng.uniform(0, 4) == 0) continue;
+        score.at<float>(y, static_cast<int>(d)) = w;
+        if (d + 1 < offsets) score.at<float>(y, static_cast<int>(d) + 1) = 0.0f;
+        if (d > 0) score.at<float>(y, static_cast<int>(d) - 1) = 0.0f;
+      }
+    }
+    // Rows copied elsewhere: the same offsets and weights on other rows.
+    for (int j = 0; j < trial % 4; ++j) {
+      const int from = static_cast<int>(rng.uniform(0, rows)), to = static_cast<int>(rng.uniform(0, rows));
+      score.row(from).copyTo(score.row(to));
+    }
+    GroundParams gp;
+    gp.min_peak_score = 1e-3f;  // every spike votes
+    gp.peak_ratio = 0.0f;
+    gp.max_peaks_per_row = 4;
+    gp.min_support_rows = 1;
+    gp.min_support_fraction = 0.0;
+    gp.min_segment_rows = 1;
+    if (trial % 5 == 4) {  // another grid: fewer slopes than a group, or not a multiple of it
+      gp.min_slope = trial % 10 == 4 ? 0.2 : 0.05;
+      gp.max_slope = trial % 10 == 4 ? 0.21 : 2.3;
+      gp.slope_step = trial % 10 == 4 ? 0.003 : 0.0071;
+    }
+    GroundEstimator ref(gp), fast(gp);
+    GroundProfile a, b;
+    ref.computeReference(score, rig, nullptr, 0, a);
+    fast.compute(score, rig, nullptr, 0, b);
+    SCOPED_TRACE("trial " + std::to_string(trial) + ", " + std::to_string(rows) + " rows, " + std::to_string(offsets) +
+                 " offsets");
+    ASSERT_TRUE(sameLine(ref.mainHoughLine(), fast.mainHoughLine())) << "first Hough maximum";
+    ASSERT_TRUE(sameLine(ref.secondHoughLine(), fast.secondHoughLine())) << "second Hough maximum";
+    ASSERT_EQ(a.horizon_row, b.horizon_row);
+    ASSERT_EQ(0, std::memcmp(a.offset_per_row.data(), b.offset_per_row.data(), a.offset_per_row.size() * sizeof(float)));
+    lines += ref.mainHoughLine().has_value();
+    second_lines += ref.secondHoughLine().has_value();
+    // Again on the same estimator: the scratch of the previous image changes nothing.
+    fast.compute(score, rig, nullptr, 0, b);
+    ASSERT_TRUE(sameLine(ref.mainHoughLine(), fast.mainHoughLine())) << "first Hough maximum, second call";
+  }
+  EXPECT_GT(lines, 350);
+  EXPECT_GT(second_lines, 200);
+}
+
 }  // namespace
 }  // namespace sg
 
