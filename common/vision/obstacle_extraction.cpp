@@ -420,6 +420,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   prepareContactRows(ground, rows, offsets);
   match_scratch_.resize(static_cast<std::size_t>(simd::windowMatchScratchSize(cols, std::max(half, params_.share_half_window_px))));
   sweep_row_.resize(static_cast<std::size_t>(cols));
+  offset_runs_.reserve(static_cast<std::size_t>(cols));  // a box sweep has at most a run per column
   col_count_.resize(static_cast<std::size_t>(cols));
   if (params_.cell_px > 0) {
     const std::size_t cells = static_cast<std::size_t>((cols + params_.cell_px - 1) / params_.cell_px) *
@@ -485,6 +486,17 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     const int run_half = clear_label < 0 ? params_.share_half_window_px : half;
     int count = 0;
     const int bx1 = box.x + box.width;
+    // Runs of columns sharing an offset (the same on every row of the box).
+    offset_runs_.clear();
+    if (per_column) {
+      for (int xa = box.x; xa < bx1;) {
+        const int d = col_offset_[static_cast<std::size_t>(xa)];
+        int xb = xa + 1;
+        while (xb < bx1 && col_offset_[static_cast<std::size_t>(xb)] == d) ++xb;
+        offset_runs_.push_back(OffsetRun{xa, xb, d});
+        xa = xb;
+      }
+    }
     for (int y = box.y; y < box.y + box.height; ++y) {
       std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
       const std::uint8_t* r = right.ptr<std::uint8_t>(y);
@@ -493,15 +505,11 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       if (!per_column) {
         mk = maskRow(candidate_masks_, remaining, right, y, box.x, bx1);
       } else {
-        for (int xa = box.x; xa < bx1;) {  // runs of columns sharing an offset
-          const int d = col_offset_[static_cast<std::size_t>(xa)];
-          int xb = xa + 1;
-          while (xb < bx1 && col_offset_[static_cast<std::size_t>(xb)] == d) ++xb;
+        for (const OffsetRun& run : offset_runs_) {
           // At least a vector wide: columns to the right of the run belong to runs not
           // computed yet, which overwrite them.
-          matchRow(l, r, xa, std::min(cols, std::max(xb, xa + simd::kLanes)), d - run_slack, d + run_slack, run_half,
-                   sweep_row_.data());
-          xa = xb;
+          matchRow(l, r, run.x0, std::min(cols, std::max(run.x1, run.x0 + simd::kLanes)), run.d - run_slack,
+                   run.d + run_slack, run_half, sweep_row_.data());
         }
       }
       if (clear_label < 0) {  // counting only: the matches as they are (mk holds 0/1)

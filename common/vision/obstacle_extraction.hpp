@@ -297,6 +297,10 @@ class ObstacleExtractor {
   std::vector<float> col_hist_;
   std::vector<float> row_hist_;
   std::vector<int> col_offset_;      // per column: the offset the cluster matched it at
+  struct OffsetRun {
+    int x0 = 0, x1 = 0, d = 0;  // columns [x0, x1) share col_offset_ d
+  };
+  std::vector<OffsetRun> offset_runs_;  // a box sweep's runs of columns (kept: no allocation per frame)
   RowMasks candidate_masks_;         // matches at the current candidate's offset
   RowMasks growth_masks_;            // matches at the offset a wall is grown over
   std::vector<std::uint8_t> match_scratch_;
