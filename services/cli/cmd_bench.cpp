@@ -105,13 +105,15 @@ PassFigures measurePass(const std::vector<StereoPair>& pairs, DetectorParams par
   return f;
 }
 
+// into[i] = min(into[i], other[i]) frame by frame.
+void keepMin(std::vector<double>& into, const std::vector<double>& other) {
+  for (std::size_t i = 0; i < into.size() && i < other.size(); ++i) into[i] = std::min(into[i], other[i]);
+}
+
 // Per frame, the fastest of the rounds for every figure (another process sharing the core
 // only ever slows a run down); counts are the same in every round and come from the first.
 PassFigures fastestOf(const std::vector<PassFigures>& rounds) {
   PassFigures f = rounds.front();
-  auto keepMin = [](std::vector<double>& into, const std::vector<double>& other) {
-    for (std::size_t i = 0; i < into.size() && i < other.size(); ++i) into[i] = std::min(into[i], other[i]);
-  };
   for (std::size_t r = 1; r < rounds.size(); ++r) {
     const PassFigures& o = rounds[r];
     for (auto& [stage, ms] : f.stage_ms) {
@@ -198,8 +200,7 @@ void runBench(const BenchOptions& opt) {
   std::optional<PassFigures> capped;
   if (measure_capped) capped = fastestOf(capped_rounds);
   std::vector<double> stereobm_ms = stereobm_rounds.front();
-  for (const auto& round : stereobm_rounds)
-    for (std::size_t i = 0; i < stereobm_ms.size(); ++i) stereobm_ms[i] = std::min(stereobm_ms[i], round[i]);
+  for (const auto& round : stereobm_rounds) keepMin(stereobm_ms, round);
 
   const double frames = static_cast<double>(pairs.size());
   const Stats seg = stats(f.segmentation_ms);
