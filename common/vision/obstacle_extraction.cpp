@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -696,19 +697,46 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         int matched = 0, present = 0;
         c.x0 = cols;
         c.y0 = rows;
-        for (int y = j * cs; y < std::min((j + 1) * cs, limit + 1); ++y) {
-          const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
-          const std::uint8_t* mk =
-              maskRow(candidate_masks_, remaining, right, y, i * cs, std::min((i + 1) * cs, cols));
-          for (int x = i * cs; x < std::min((i + 1) * cs, cols); ++x) {
-            if (!l[x] || !inStripe(y, x)) continue;
-            ++present;
-            if (mk[x]) {
-              ++matched;
-              c.x0 = std::min(c.x0, x);
-              c.x1 = std::max(c.x1, x);
-              c.y0 = std::min(c.y0, y);
-              c.y1 = std::max(c.y1, y);
+        const int cx0 = i * cs;
+        const int cy1 = std::min((j + 1) * cs, limit + 1);  // one past the cell's last row
+        if (std::endian::native == std::endian::little && fast_ && cs == 4 && cx0 + 4 <= cols &&
+            cy1 - 1 <= stripe_floor) {
+          // A cell row's four pixels as the bytes of one word, without a branch per pixel (the
+          // pixels' features and matches are what the branches would guess at): the features
+          // are the nonzero bytes, a match counts where its pixel is a feature.
+          std::uint32_t any = 0;
+          for (int y = j * cs; y < cy1; ++y) {
+            std::uint32_t lw, mw;
+            std::memcpy(&lw, remaining.ptr<std::uint8_t>(y) + cx0, sizeof(lw));
+            std::memcpy(&mw, maskRow(candidate_masks_, remaining, right, y, cx0, cx0 + 4) + cx0, sizeof(mw));
+            const std::uint32_t feature = (((lw & 0x7f7f7f7fu) + 0x7f7f7f7fu) | lw) & 0x80808080u;
+            const std::uint32_t hit = (mw << 7) & feature;  // mask bytes are 0 or 1
+            const int n = std::popcount(hit);
+            present += std::popcount(feature);
+            matched += n;
+            c.y0 = n != 0 && y < c.y0 ? y : c.y0;
+            c.y1 = n != 0 ? y : c.y1;
+            any |= hit;
+          }
+          if (any != 0) {
+            c.x0 = cx0 + std::countr_zero(any) / 8;
+            c.x1 = cx0 + (31 - std::countl_zero(any)) / 8;
+          }
+        } else {
+          for (int y = j * cs; y < cy1; ++y) {
+            const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+            const std::uint8_t* mk =
+                maskRow(candidate_masks_, remaining, right, y, i * cs, std::min((i + 1) * cs, cols));
+            for (int x = i * cs; x < std::min((i + 1) * cs, cols); ++x) {
+              if (!l[x] || !inStripe(y, x)) continue;
+              ++present;
+              if (mk[x]) {
+                ++matched;
+                c.x0 = std::min(c.x0, x);
+                c.x1 = std::max(c.x1, x);
+                c.y0 = std::min(c.y0, y);
+                c.y1 = std::max(c.y1, y);
+              }
             }
           }
         }
