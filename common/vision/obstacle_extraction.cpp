@@ -34,6 +34,27 @@ inline bool matchAt(const std::uint8_t* l, const std::uint8_t* r, int x, int d0,
   return false;
 }
 
+// matchAt without an early exit: every offset and window pixel is tested, so that the
+// outcome is computed rather than branched on pixel by pixel (the same function).
+inline bool matchAtEvery(const std::uint8_t* l, const std::uint8_t* r, int x, int d0, int d1, int tol, int half,
+                         int width) {
+  const int k0 = std::max(-half, -x);
+  const int k1 = std::min(half, width - 1 - x);
+  bool any = false;
+  for (int d = std::max(d0, 0); d <= std::min(d1, x); ++d) {
+    bool ok = true;
+    for (int k = std::max(k0, d - x); k <= k1; ++k) {
+      const int a = l[x + k];
+      const int b = r[x + k - d];
+      const bool present = a != 0;
+      const bool good = (b != 0) & (std::abs(a - b) <= tol);
+      ok &= (present & good) | (!present & (k != 0));
+    }
+    any |= ok;
+  }
+  return any;
+}
+
 // Number of ones in the 0/1 bytes p[0, n): eight bytes at a time (each byte of the product's
 // top byte sums the eight, at most 8).
 int countOnes(const std::uint8_t* p, int n) {
@@ -285,11 +306,7 @@ void ObstacleExtractor::offsetHistogram(const cv::Mat& matches, const GroundProf
       // excess then replaces its previous one in the kept sums.
       constexpr int kMedianSteps = 16;
       int& median = row_median_[static_cast<std::size_t>(y)];
-      if (!simd::kthSmallestFrom(m, offsets, k, median, kMedianSteps, median)) {
-        row_values_.assign(m, m + offsets);
-        std::nth_element(row_values_.begin(), row_values_.begin() + k, row_values_.end());
-        median = row_values_[static_cast<std::size_t>(k)];
-      }
+      if (!simd::kthSmallestFrom(m, offsets, k, median, kMedianSteps, median)) median = simd::kthSmallest(m, offsets, k);
       simd::replaceRowExcess(m, median, min_excess, y, lim, offsets,
                              row_excess_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(offsets),
                              hist_sum_.data());
@@ -538,7 +555,8 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         if (!matched && x - last_cleared <= half && l[x] != 0) {
           const int c = per_column ? col_offset_[static_cast<std::size_t>(x)] : best;
           const int slack = per_column ? tol + 1 : tol;
-          matched = matchAt(l, r, x, c - slack, c + slack, params_.grey_tolerance, half, cols);
+          matched = fast_ ? matchAtEvery(l, r, x, c - slack, c + slack, params_.grey_tolerance, half, cols)
+                          : matchAt(l, r, x, c - slack, c + slack, params_.grey_tolerance, half, cols);
         }
         if (!matched) {
           // Fast path: past the window of the last cleared pixel only matched pixels are

@@ -492,6 +492,36 @@ template <int H>
   return true;
 }
 
+// The k-th smallest of counts[0, n) by bisection over the values: the smallest v with more
+// than k counts at or below it. Each step is one counting pass, with no branch per count.
+[[gnu::always_inline]] inline int countAtMost(const int* counts, int n, int v) {
+  const I32x8 vv = I32x8{} + v;
+  I32x8 a{};
+  int d = 0;
+  for (; d + 8 <= n; d += 8) {
+    I32x8 c;
+    std::memcpy(&c, counts + d, sizeof(c));
+    a -= c <= vv;  // true is -1
+  }
+  int la[8];
+  std::memcpy(la, &a, sizeof(la));
+  int at_most = 0;
+  for (int j = 0; j < 8; ++j) at_most += la[j];
+  for (; d < n; ++d) at_most += counts[d] <= v;
+  return at_most;
+}
+
+[[gnu::always_inline]] inline int kthSmallestBisectImpl(const int* counts, int n, int k) {
+  const auto [lowest, highest] = std::minmax_element(counts, counts + n);
+  std::int64_t lo = *lowest, hi = *highest;
+  while (lo < hi) {
+    const std::int64_t mid = lo + (hi - lo) / 2;
+    if (countAtMost(counts, n, static_cast<int>(mid)) > k) hi = mid;
+    else lo = mid + 1;
+  }
+  return static_cast<int>(lo);
+}
+
 // One row of the fast path's mirrored sums, for pairs j = 1..n about the column
 // `axis` of the row's quantized weights w, their mirror m and grey levels g:
 //   sm[j] += w[axis - j] * m[axis + j] + m[axis - j] * w[axis + j]
@@ -646,6 +676,9 @@ typedef std::uint16_t U16x16 __attribute__((vector_size(32)));
 [[gnu::target("avx2")]] bool kthSmallestAvx2(const int* counts, int n, int k, int previous, int max_steps, int& value) {
   return kthSmallestImpl(counts, n, k, previous, max_steps, value);
 }
+[[gnu::target("avx2")]] int kthSmallestBisectAvx2(const int* counts, int n, int k) {
+  return kthSmallestBisectImpl(counts, n, k);
+}
 [[gnu::target("avx2")]] void mirroredRowAvx2(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g,
                                              int axis, int n, std::int32_t* sm, std::int32_t* sab) {
   mirroredRowImpl<I32x8, U8x8>(w, m, g, axis, n, sm, sab);
@@ -671,6 +704,8 @@ void rowExcessBaseline(const int* counts, int median, int min_excess, int row, c
 bool kthSmallestBaseline(const int* counts, int n, int k, int previous, int max_steps, int& value) {
   return kthSmallestImpl(counts, n, k, previous, max_steps, value);
 }
+
+int kthSmallestBisectBaseline(const int* counts, int n, int k) { return kthSmallestBisectImpl(counts, n, k); }
 
 void mirroredRowBaseline(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g, int axis, int n,
                          std::int32_t* sm, std::int32_t* sab) {
@@ -777,6 +812,13 @@ bool kthSmallestFrom(const int* counts, int n, int k, int previous, int max_step
   if (useAvx2()) return kthSmallestAvx2(counts, n, k, previous, max_steps, value);
 #endif
   return kthSmallestBaseline(counts, n, k, previous, max_steps, value);
+}
+
+int kthSmallest(const int* counts, int n, int k) {
+#ifdef SG_SIMD_X86
+  if (useAvx2()) return kthSmallestBisectAvx2(counts, n, k);
+#endif
+  return kthSmallestBisectBaseline(counts, n, k);
 }
 
 void mirroredRowSums(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g, int axis, int n,

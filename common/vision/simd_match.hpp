@@ -72,6 +72,10 @@ void replaceRowExcess(const int* counts, int median, int min_excess, int row, co
 // a selection). Returns false, `value` unchanged, when it is neither.
 bool kthSmallestFrom(const int* counts, int n, int k, int previous, int max_steps, int& value);
 
+// The k-th smallest (0-based, 0 <= k < n, n > 0) of counts[0, n), as std::nth_element would
+// place it, found by bisection over the values (a counting pass per step, no branch per count).
+int kthSmallest(const int* counts, int n, int k);
+
 // Symmetry scan (SymmetryScanner), one row: for pairs j = 1..n about column `axis`
 // of a row of quantized edge weights w, their mirror m and grey levels g,
 //   sm[j] += w[axis - j] * m[axis + j] + m[axis - j] * w[axis + j]

@@ -712,5 +712,22 @@ TEST(FastObstacles, KthSmallestFromAPreviousValueIsTheSelectedOne) {
   EXPECT_GT(declined, 100);
 }
 
+TEST(FastObstacles, KthSmallestByBisectionIsTheSelectedValue) {
+  cv::RNG rng(77);
+  for (int trial = 0; trial < 2000; ++trial) {
+    const int n = trial < 50 ? trial + 1 : rng.uniform(1, 300);
+    std::vector<int> counts(static_cast<std::size_t>(n));
+    const int range = trial % 5 == 0 ? 3 : rng.uniform(1, 2000);
+    for (int& c : counts) c = rng.uniform(0, range + 1) - (trial % 4 == 0 ? range / 2 : 0);
+    if (trial % 7 == 0) counts[0] = std::numeric_limits<int>::min();  // extreme values
+    if (trial % 11 == 0) counts[static_cast<std::size_t>(n - 1)] = std::numeric_limits<int>::max();
+    const int k = trial % 3 == 0 ? n / 2 : rng.uniform(0, n);
+    std::vector<int> sorted = counts;
+    std::nth_element(sorted.begin(), sorted.begin() + k, sorted.end());
+    SCOPED_TRACE(std::to_string(n) + " counts, k " + std::to_string(k));
+    ASSERT_EQ(simd::kthSmallest(counts.data(), n, k), sorted[static_cast<std::size_t>(k)]);
+  }
+}
+
 }  // namespace
 }  // namespace sg
