@@ -867,13 +867,66 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         resetMasks(growth_masks_, d - tol, d + tol);
         // Column evidence at d, computed only for the columns a run walks over.
         // A column whose features mostly do not match at d shows texture at other depths.
-        auto columnAt = [&](int x) {
+        // The fast path counts eight columns at a time, row by row (the run asks for the next
+        // ones in its direction): each row's features and matches as the bytes of one word.
+        constexpr int kBlock = 8;
+        int block_x0 = 0, block_x1 = -1;  // the columns block_count_ and block_present_ hold
+        auto countBlock = [&](int xa) {
+          block_x0 = std::max(0, xa);
+          block_x1 = std::min(cols - 1, xa + kBlock - 1);
+          const int n = block_x1 - block_x0 + 1;
+          int yc[kBlock];
+          int common = yb;  // rows every column of the block counts
+          for (int i = 0; i < n; ++i) {
+            yc[i] = std::min(yb, rowLimitAt(d, block_x0 + i));
+            common = std::min(common, yc[i]);
+            block_count_[static_cast<std::size_t>(i)] = 0;
+            block_present_[static_cast<std::size_t>(i)] = 0;
+          }
+          int y = ya;
+          if (n == kBlock && std::endian::native == std::endian::little) {
+            // Byte counters of at most 255 rows, then added to the columns' totals.
+            constexpr std::uint64_t kLow7 = 0x7f7f7f7f7f7f7f7full, kOnes = 0x0101010101010101ull;
+            while (y <= common) {
+              const int y_end = std::min(common, y + 254);
+              std::uint64_t present = 0, matched = 0;
+              for (; y <= y_end; ++y) {
+                std::uint64_t lw, mw;
+                std::memcpy(&lw, remaining.ptr<std::uint8_t>(y) + block_x0, sizeof(lw));
+                std::memcpy(&mw, maskRow(growth_masks_, remaining, right, y, block_x0, block_x0 + kBlock) + block_x0,
+                            sizeof(mw));
+                const std::uint64_t feature = ((((lw & kLow7) + kLow7) | lw) >> 7) & kOnes;  // 0/1 bytes
+                present += feature;
+                matched += mw & feature;  // mask bytes are 0 or 1
+              }
+              for (int i = 0; i < kBlock; ++i) {
+                block_present_[static_cast<std::size_t>(i)] += static_cast<int>((present >> (8 * i)) & 0xff);
+                block_count_[static_cast<std::size_t>(i)] += static_cast<int>((matched >> (8 * i)) & 0xff);
+              }
+            }
+          }
+          for (int i = 0; i < n; ++i) {
+            const int x = block_x0 + i;
+            for (int yy = y; yy <= yc[i]; ++yy) {
+              if (!remaining.ptr<std::uint8_t>(yy)[x]) continue;
+              ++block_present_[static_cast<std::size_t>(i)];
+              block_count_[static_cast<std::size_t>(i)] += maskRow(growth_masks_, remaining, right, yy, x, x + 1)[x];
+            }
+          }
+        };
+        auto columnAt = [&](int x, int step) {
           int count = 0, present = 0;
-          const int yc = std::min(yb, rowLimitAt(d, x));
-          for (int y = ya; y <= yc; ++y) {
-            if (!remaining.ptr<std::uint8_t>(y)[x]) continue;
-            ++present;
-            count += maskRow(growth_masks_, remaining, right, y, x, x + 1)[x];
+          if (fast_) {
+            if (x < block_x0 || x > block_x1) countBlock(step > 0 ? x : x - kBlock + 1);
+            count = block_count_[static_cast<std::size_t>(x - block_x0)];
+            present = block_present_[static_cast<std::size_t>(x - block_x0)];
+          } else {
+            const int yc = std::min(yb, rowLimitAt(d, x));
+            for (int y = ya; y <= yc; ++y) {
+              if (!remaining.ptr<std::uint8_t>(y)[x]) continue;
+              ++present;
+              count += maskRow(growth_masks_, remaining, right, y, x, x + 1)[x];
+            }
           }
           if (count < params_.min_match_fraction * present) count = 0;
           col_hist_[static_cast<std::size_t>(x)] = static_cast<float>(count);
@@ -885,7 +938,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           float sum = 0.0f;
           int gap = 0;
           for (int x = start; x >= 0 && x < cols; x += step) {
-            const float v = columnAt(x);
+            const float v = columnAt(x, step);
             if (v >= thr_col) {
               end = x;
               gap = 0;

@@ -29,6 +29,7 @@
 //    receding in depth, are joined into one obstacle (joinPlainFaces); last, side columns
 //    whose pixels do not pin the offset (the feature mask's reach into a plain surround) are
 //    trimmed (trimPlainSides).
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -318,6 +319,7 @@ class ObstacleExtractor {
     int x0 = 0, y0 = 0, x1 = -1, y1 = -1;  // bounding box of the matched pixels
   };
   std::vector<Cell> cell_;
+  std::array<int, 8> block_count_{}, block_present_{};  // growth: a block of columns' evidence
   std::vector<int> touched_cells_;  // cells evaluated this iteration (reset before the next)
   std::vector<int> flood_;   // cells still to visit while growing a cluster
   std::vector<ObstacleCluster> kept_;  // joinPlainFaces: the obstacles left after a join
