@@ -72,7 +72,8 @@ void Correlator::correlateRow(const cv::Mat& left, const cv::Mat& right, int y, 
 }
 
 void Correlator::correlateRowFast(const cv::Mat& left, const cv::Mat* before, const cv::Mat& right, int y,
-                                  cv::Mat& score, cv::Mat& matches, std::vector<std::uint8_t>& padded_right) const {
+                                  cv::Mat& score, cv::Mat& matches, std::vector<std::uint8_t>& padded_right,
+                                  bool with_strips) {
   const int w = left.cols;
   const int offsets = params_.offsets;
   const int tol = params_.grey_tolerance;
@@ -117,7 +118,20 @@ void Correlator::correlateRowFast(const cv::Mat& left, const cv::Mat* before, co
       for (int d = 0; d < offsets; ++d) m[d] = -m[d];
     } else {
       std::fill(m, m + offsets, 0);
-      simd::accumulateMatches(l, nullptr, rp, l0, l1, offsets, tol, m);
+      if (with_strips) {
+        // Strip by strip (the same pixels, split at the strips' borders), then summed.
+        const int strips = strips_.strips;
+        for (int k = 0; k < strips; ++k) {
+          int* c = strips_.counts.data() + (static_cast<std::size_t>(y) * static_cast<std::size_t>(strips) +
+                                            static_cast<std::size_t>(k)) * static_cast<std::size_t>(offsets);
+          std::fill(c, c + offsets, 0);
+          const int x0 = std::max(l0, k * w / strips), x1 = std::min(l1, (k + 1) * w / strips);
+          if (x0 < x1) simd::accumulateMatches(l, nullptr, rp, x0, x1, offsets, tol, c);
+          for (int d = 0; d < offsets; ++d) m[d] += c[d];
+        }
+      } else {
+        simd::accumulateMatches(l, nullptr, rp, l0, l1, offsets, tol, m);
+      }
     }
   }
   const float norm = static_cast<float>(std::max(n_left, params_.min_row_features));
@@ -140,14 +154,28 @@ void Correlator::forEachRow(int rows, Fn&& fn) {
 
 void Correlator::computeReference(const cv::Mat& left, const cv::Mat& right, cv::Mat& score, cv::Mat& matches) {
   prepare(left, right, score, matches);
+  strips_.valid = false;
   for (int y = 0; y < left.rows; ++y) correlateRow(left, right, y, score, matches);
 }
 
 void Correlator::compute(const cv::Mat& left, const cv::Mat& right, cv::Mat& score, cv::Mat& matches) {
   prepare(left, right, score, matches);
+  const bool with_strips = strip_count_ > 0;
+  strips_.valid = false;
+  if (with_strips) {  // kept between frames of one size
+    strips_.strips = strip_count_;
+    strips_.rows = left.rows;
+    strips_.cols = left.cols;
+    strips_.offsets = params_.offsets;
+    strips_.grey_tolerance = params_.grey_tolerance;
+    strips_.first_row = std::clamp(strip_first_row_, 0, left.rows);
+    strips_.counts.resize(static_cast<std::size_t>(left.rows) * static_cast<std::size_t>(strip_count_) *
+                          static_cast<std::size_t>(params_.offsets));
+  }
   forEachRow(left.rows, [&](int y, std::vector<std::uint8_t>& scratch) {
-    correlateRowFast(left, nullptr, right, y, score, matches, scratch);
+    correlateRowFast(left, nullptr, right, y, score, matches, scratch, with_strips && y >= strips_.first_row);
   });
+  strips_.valid = with_strips;
 }
 
 void Correlator::compute(const cv::Mat& left, const cv::Mat& right, cv::Mat& score) {
@@ -162,6 +190,7 @@ void Correlator::computeRows(const cv::Mat& left, const cv::Mat& right, const st
     return;
   }
   prepare(left, right, score, matches);
+  strips_.valid = false;
   forEachRow(left.rows, [&](int y, std::vector<std::uint8_t>& scratch) {
     if (rows[static_cast<std::size_t>(y)] != 0) correlateRowFast(left, nullptr, right, y, score, matches, scratch);
   });
@@ -178,6 +207,7 @@ void Correlator::updateRows(const cv::Mat& before, const cv::Mat& after, const c
     return;
   }
   prepare(after, right, score, matches);
+  strips_.valid = false;
   forEachRow(after.rows, [&](int y, std::vector<std::uint8_t>& scratch) {
     if (rows[static_cast<std::size_t>(y)] != 0) correlateRowFast(after, &before, right, y, score, matches, scratch);
   });

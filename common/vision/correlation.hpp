@@ -40,6 +40,21 @@ struct CorrelationParams {
 // Number of left pixels in [x0, x1) matching the right row at offset d (right x - d), the inner loop.
 int countRowMatches(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d, int grey_tolerance);
 
+// The correlation's counts split by column strips: counts of row y, strip k (columns
+// [k * cols / strips, (k + 1) * cols / strips)) and offset d at at(y, k)[d]. The row's
+// matches(y, d) are the sums over its strips. Made by Correlator::compute when strips are
+// asked for (setStrips), for the transversal slope (GroundEstimator::estimateRoll).
+struct StripMatches {
+  int strips = 0, rows = 0, cols = 0, offsets = 0, grey_tolerance = 0;
+  int first_row = 0;        // rows above it were not split
+  bool valid = false;       // describes the last compute()'s feature images
+  std::vector<int> counts;  // rows x strips x offsets
+  const int* at(int y, int k) const {
+    return counts.data() + (static_cast<std::size_t>(y) * static_cast<std::size_t>(strips) +
+                            static_cast<std::size_t>(k)) * static_cast<std::size_t>(offsets);
+  }
+};
+
 class Correlator {
  public:
   explicit Correlator(const CorrelationParams& params = {});
@@ -63,6 +78,14 @@ class Correlator {
                   const std::vector<std::uint8_t>& rows, cv::Mat& score, cv::Mat& matches);
 
   const CorrelationParams& params() const { return params_; }
+  // compute() also counts the matches of `strips` column strips (0: not) on the rows from
+  // first_row down (the ground rows: the counts cost the row a little more).
+  void setStrips(int strips, int first_row = 0) {
+    strip_count_ = strips;
+    strip_first_row_ = first_row;
+  }
+  // The strips of the last compute(); `valid` is false after any other computation.
+  const StripMatches& strips() const { return strips_; }
 
  private:
   void prepare(const cv::Mat& left, const cv::Mat& right, cv::Mat& score, cv::Mat& matches) const;
@@ -70,8 +93,9 @@ class Correlator {
   void correlateRow(const cv::Mat& left, const cv::Mat& right, int y, cv::Mat& score, cv::Mat& matches) const;
   // Fast row: vector kernel over the left feature pixels only. `before` not null:
   // update from the correlation of `before` (see updateRows).
+  // With_strips: a full row's counts strip by strip into strips_ (then summed).
   void correlateRowFast(const cv::Mat& left, const cv::Mat* before, const cv::Mat& right, int y, cv::Mat& score,
-                        cv::Mat& matches, std::vector<std::uint8_t>& padded_right) const;
+                        cv::Mat& matches, std::vector<std::uint8_t>& padded_right, bool with_strips = false);
   std::vector<std::uint8_t>& bandScratch(int band);
   // Runs fn(y, scratch) for every row of `rows` rows in parallel row bands.
   template <class Fn>
@@ -81,6 +105,8 @@ class Correlator {
   cv::Mat scratch_score_;  // for the score-only overload
   cv::Mat scratch_matches_;
   std::vector<std::vector<std::uint8_t>> band_scratch_;  // per band: padded right row, reused across frames
+  int strip_count_ = 0, strip_first_row_ = 0;
+  StripMatches strips_;
 };
 
 }  // namespace sg

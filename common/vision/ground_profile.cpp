@@ -609,12 +609,15 @@ void GroundEstimator::estimateRollReference(const cv::Mat& left, const cv::Mat& 
 }
 
 void GroundEstimator::estimateRoll(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
-                                   GroundProfile& ground) {
+                                   GroundProfile& ground, const StripMatches* strip_matches) {
   if (!rollSetUp(left, rig, ground)) return;
   const int strips = params_.roll_strips;
   const int w = left.cols;
   const int search = params_.roll_search_px;
   const int bins = 2 * search + 1;
+  const bool counted = strip_matches != nullptr && strip_matches->valid && strip_matches->strips == strips &&
+                       strip_matches->rows == left.rows && strip_matches->cols == w &&
+                       kRollGreyTolerance == strip_matches->grey_tolerance;
   roll_counts_.resize(static_cast<std::size_t>(simd::kLanes));
   // Right row with kLanes zeros in front: the window kernel reads up to kLanes - 1 before x - d_first.
   const int pad = simd::kLanes;
@@ -627,6 +630,17 @@ void GroundEstimator::estimateRoll(const cv::Mat& left, const cv::Mat& right, co
     const int base = static_cast<int>(std::lround(g));
     const std::uint8_t* l = left.ptr<std::uint8_t>(y);
     double* band_hist = &roll_hist_[static_cast<std::size_t>(rollBand(y) * strips * bins)];
+    if (counted && y >= strip_matches->first_row && base + search < strip_matches->offsets) {
+      // The correlation's strip counts at the row's offsets (an offset beyond a strip's
+      // columns counts nothing there, as in the reference).
+      const int b_first = std::max(0, search - base);
+      for (int k = 0; k < strips; ++k) {
+        const int* c = strip_matches->at(y, k);
+        double* h = band_hist + k * bins;
+        for (int b = b_first; b < bins; ++b) h[b] += c[base - search + b];
+      }
+      continue;
+    }
     std::memcpy(rp, right.ptr<std::uint8_t>(y), static_cast<std::size_t>(w));
     // Offsets base - search .. base + search, negative ones left out, in windows of kLanes.
     for (int b_first = std::max(0, search - base); b_first < bins; b_first += simd::kLanes) {

@@ -18,6 +18,7 @@
 
 #include "camera/stereo_rig.hpp"
 #include "config/params.hpp"
+#include "vision/correlation.hpp"
 #include "vision/segmentation_types.hpp"
 
 namespace sg {
@@ -124,8 +125,10 @@ class GroundEstimator {
   // Transversal slope: fills ground.offset_per_column / reference_column from the
   // offsets of column strips of the ground rows around the line (feature images).
   // Vector kernel over the left feature pixels; bit-identical to estimateRollReference.
+  // With `strips` (the correlation of these feature images, split into roll_strips column
+  // strips) the counts are read from there instead of matched again.
   void estimateRoll(const cv::Mat& left_features, const cv::Mat& right_features, const StereoRig& rig,
-                    GroundProfile& ground);
+                    GroundProfile& ground, const StripMatches* strips = nullptr);
   void estimateRollReference(const cv::Mat& left_features, const cv::Mat& right_features, const StereoRig& rig,
                              GroundProfile& ground);
 

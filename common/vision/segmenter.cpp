@@ -1,6 +1,8 @@
 #include "vision/segmenter.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include "config/errors.hpp"
 
@@ -20,6 +22,7 @@ Segmenter::Segmenter(const SegmenterParams& params)
       remover_(params.removal),
       obstacles_(params.obstacles, params.parallel) {
   params_.validate();
+
 }
 
 void Segmenter::reset() {
@@ -44,6 +47,17 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
   if (right_features.data != out.right_features.data) right_features.copyTo(out.right_features);
 
   auto t = Clock::now();
+  // The transversal slope reads the first correlation's counts of its column strips on the
+  // ground rows: below the last horizon found, else the mounting's (level ground), with a
+  // margin for slopes. The roll matches any row above them itself: only the cost depends on it.
+  if (params_.parallel) {
+    double horizon = 0.0;
+    if (have_previous_) horizon = previous_ground_.horizon_row;
+    else if (rig.mounting) horizon = rig.cy_px - rig.focal_px * std::tan(rig.mounting->pitch_rad);
+    const int margin = left_features.rows / 16;
+    correlator_.setStrips(params_.ground.roll_strips,
+                          static_cast<int>(std::clamp(horizon, 0.0, static_cast<double>(left_features.rows))) - margin);
+  }
   if (params_.parallel) correlator_.compute(left_features, right_features, out.correlation_initial, matches_);
   else correlator_.computeReference(left_features, right_features, out.correlation_initial, matches_);
   out.timing_ms["correlation"] = msSince(t);
@@ -59,7 +73,7 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
   } else if (have_previous_) {
     ++previous_age_frames_;
   }
-  if (params_.parallel) ground_.estimateRoll(left_features, right_features, rig, out.ground);
+  if (params_.parallel) ground_.estimateRoll(left_features, right_features, rig, out.ground, &correlator_.strips());
   else ground_.estimateRollReference(left_features, right_features, rig, out.ground);
   out.timing_ms["ground"] = msSince(t);
 

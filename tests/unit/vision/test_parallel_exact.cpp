@@ -63,6 +63,15 @@ TEST_P(ParallelExact, EveryStageMatchesItsReference) {
     corr.compute(lf, rf, s, m);
     ASSERT_TRUE(test::sameBits(s, s_ref)) << "correlation score";
     ASSERT_TRUE(test::sameBits(m, m_ref)) << "correlation matches";
+    // Counted strip by strip for the transversal slope, on the lower two thirds of the rows
+    // (the roll matches the rows above itself): the same correlation.
+    Correlator corr_strips;
+    corr_strips.setStrips(GroundParams{}.roll_strips, lf.rows / 3);
+    cv::Mat s_strips, m_strips;
+    corr_strips.compute(lf, rf, s_strips, m_strips);
+    ASSERT_TRUE(test::sameBits(s_strips, s_ref)) << "correlation score, strips counted";
+    ASSERT_TRUE(test::sameBits(m_strips, m_ref)) << "correlation matches, strips counted";
+    ASSERT_TRUE(corr_strips.strips().valid);
 
     GroundEstimator ground;
     GroundProfile profile, profile_ref;
@@ -74,9 +83,14 @@ TEST_P(ParallelExact, EveryStageMatchesItsReference) {
                              profile.offset_per_row.size() * sizeof(float)))
         << "ground offsets per row";
     ASSERT_EQ(profile.vertices, profile_ref.vertices);
+    GroundProfile profile_strips = profile;
     ground.estimateRollReference(lf, rf, p.rig, profile_ref);
     ground.estimateRoll(lf, rf, p.rig, profile);
+    ground.estimateRoll(lf, rf, p.rig, profile_strips, &corr_strips.strips());
     ASSERT_EQ(profile.offset_per_column, profile_ref.offset_per_column) << "transversal slope";
+    ASSERT_EQ(profile_strips.offset_per_column, profile_ref.offset_per_column) << "transversal slope from the strips";
+    ASSERT_EQ(profile_strips.offset_per_column_by_row, profile_ref.offset_per_column_by_row)
+        << "transversal slope per row from the strips";
     ASSERT_EQ(profile.offset_per_column_by_row, profile_ref.offset_per_column_by_row) << "transversal slope per row";
     ASSERT_EQ(profile.reference_column, profile_ref.reference_column);
     FeatureRemover remover;
@@ -189,19 +203,27 @@ TEST(FastGround, WideRollSearchMatchesTheReference) {
     cv::Mat lf, rf, s, m;
     fx.compute(p.left, lf);
     fx.compute(p.right, rf);
-    Correlator().compute(lf, rf, s, m);
     GroundParams gp;
     gp.roll_search_px = 32;
     gp.min_roll_px = 0.0;
+    // Strip counts as well: rows whose line offset plus the search passes the last offset
+    // are matched by the kernel, the others read from the counts.
+    Correlator corr;
+    corr.setStrips(gp.roll_strips);
+    corr.compute(lf, rf, s, m);
     GroundEstimator ground(gp);
     GroundProfile a, b;
     ground.computeReference(s, p.rig, nullptr, 0, a);
     ground.compute(s, p.rig, nullptr, 0, b);
+    GroundProfile c = b;
     ground.estimateRollReference(lf, rf, p.rig, a);
     ground.estimateRoll(lf, rf, p.rig, b);
+    ground.estimateRoll(lf, rf, p.rig, c, &corr.strips());
     ASSERT_EQ(a.horizon_row, b.horizon_row);
     ASSERT_EQ(a.offset_per_column, b.offset_per_column);
     ASSERT_EQ(a.offset_per_column_by_row, b.offset_per_column_by_row);
+    ASSERT_EQ(a.offset_per_column, c.offset_per_column);
+    ASSERT_EQ(a.offset_per_column_by_row, c.offset_per_column_by_row);
   }
 }
 
