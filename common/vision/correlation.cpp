@@ -80,29 +80,22 @@ void Correlator::correlateRowFast(const cv::Mat& left, const cv::Mat* before, co
   const std::uint8_t* l = left.ptr<std::uint8_t>(y);
   float* s = score.ptr<float>(y);
   int* m = matches.ptr<int>(y);
-  int l0 = 0, l1 = w;
-  while (l0 < w && l[l0] == 0) ++l0;
-  while (l1 > l0 && l[l1 - 1] == 0) --l1;
-  int n_left = 0;
-  for (int x = l0; x < l1; ++x) n_left += l[x] != 0;
+  // The span between the first and last feature pixel, and their number (vector passes).
+  const simd::ByteSpan features = simd::nonZeroSpan(l, w);
+  const int l0 = features.first, l1 = features.end, n_left = features.count;
 
   // Update from `before`: valid when every pixel of `left` is the `before` pixel or 0.
   const std::uint8_t* b = before != nullptr ? before->ptr<std::uint8_t>(y) : nullptr;
   int n_removed = 0, b0 = w, b1 = 0;
   if (b != nullptr) {
-    // Branch-free passes (vectorised): a pixel that is not `before` or 0 means the row is not a removal.
-    int not_removal = 0;
-    for (int x = 0; x < w; ++x) {
-      not_removal |= (l[x] != 0) & (l[x] != b[x]);
-      n_removed += (b[x] != 0) & (l[x] == 0);
-    }
-    if (not_removal != 0) {
-      b = nullptr;  // recompute the row
-    } else if (n_removed > 0) {
-      b0 = 0;
-      while (!(b[b0] != 0 && l[b0] == 0)) ++b0;
-      b1 = w;
-      while (!(b[b1 - 1] != 0 && l[b1 - 1] == 0)) --b1;
+    bool subset = false;
+    const simd::ByteSpan removed = simd::removedSpan(l, b, w, subset);
+    if (!subset) {
+      b = nullptr;  // not a removal: recompute the row
+    } else if (removed.count > 0) {
+      n_removed = removed.count;
+      b0 = removed.first;
+      b1 = removed.end;
     }
   }
   if (b == nullptr || n_removed > 0) {

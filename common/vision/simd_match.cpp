@@ -663,10 +663,85 @@ typedef std::uint16_t U16x16 __attribute__((vector_size(32)));
   for (; i < n; ++i) sums[i] = static_cast<std::uint16_t>(sums[i] + bytes[i]);
 }
 
+// The pixels of [0, n) where flags(x) holds: the first, one past the last, and how many.
+// vflags(x) gives the flags of pixels x .. x + kLanes - 1 as 0/1 bytes, sflag(x) one pixel's.
+template <class VFlags, class SFlag>
+[[gnu::always_inline]] inline ByteSpan spanOf(int n, VFlags vflags, SFlag sflag) {
+  ByteSpan span{n, n, 0};
+  auto anyOf = [](const U8x32& v) __attribute__((always_inline)) {
+    std::uint64_t w[4];
+    std::memcpy(w, &v, sizeof(w));
+    return (w[0] | w[1] | w[2] | w[3]) != 0;
+  };
+  // Counts in byte lanes, added up every 255 vectors.
+  int x = 0;
+  while (x + kLanes <= n) {
+    U8x32 acc{};
+    const int stop = std::min(n - kLanes, x + 254 * kLanes);
+    for (; x <= stop; x += kLanes) acc += vflags(x);
+    std::uint8_t lanes[kLanes];
+    std::memcpy(lanes, &acc, sizeof(lanes));
+    for (int j = 0; j < kLanes; ++j) span.count += lanes[j];
+  }
+  const int vector_end = x;
+  for (; x < n; ++x) span.count += sflag(x);
+  if (span.count == 0) return span;
+  // The first: the first vector with a flag, then its pixels.
+  int a = 0;
+  while (a < vector_end && !anyOf(vflags(a))) a += kLanes;
+  while (!sflag(a)) ++a;
+  // The last: likewise from the end (the pixels after the whole vectors first).
+  int b = n;
+  while (b > vector_end && !sflag(b - 1)) --b;
+  if (b == vector_end) {
+    while (b > a && !anyOf(vflags(b - kLanes))) b -= kLanes;
+    while (!sflag(b - 1)) --b;
+  }
+  span.first = a;
+  span.end = b;
+  return span;
+}
+
+[[gnu::always_inline]] inline ByteSpan nonZeroSpanImpl(const std::uint8_t* p, int n) {
+  const U8x32 zero{};
+  return spanOf(
+      n,
+      [&](int x) __attribute__((always_inline)) { return __builtin_convertvector(load(p + x) != zero, U8x32) & 1; },
+      [&](int x) __attribute__((always_inline)) { return p[x] != 0 ? 1 : 0; });
+}
+
+[[gnu::always_inline]] inline ByteSpan removedSpanImpl(const std::uint8_t* after, const std::uint8_t* before, int n,
+                                                       bool& subset) {
+  const U8x32 zero{};
+  // A pixel of `after` that is neither 0 nor the pixel of `before`: not a removal.
+  U8x32 foreign{};
+  int x = 0;
+  for (; x + kLanes <= n; x += kLanes) {
+    const U8x32 a = load(after + x), b = load(before + x);
+    foreign |= __builtin_convertvector((a != zero) & (a != b), U8x32);
+  }
+  std::uint64_t w[4];
+  std::memcpy(w, &foreign, sizeof(w));
+  bool clean = (w[0] | w[1] | w[2] | w[3]) == 0;
+  for (; x < n; ++x) clean = clean && (after[x] == 0 || after[x] == before[x]);
+  subset = clean;
+  return spanOf(
+      n,
+      [&](int i) __attribute__((always_inline)) {
+        return __builtin_convertvector((load(before + i) != zero) & (load(after + i) == zero), U8x32) & 1;
+      },
+      [&](int i) __attribute__((always_inline)) { return before[i] != 0 && after[i] == 0 ? 1 : 0; });
+}
+
 #if defined(__x86_64__) || defined(__i386__)
 #define SG_SIMD_X86 1
 [[gnu::target("avx2")]] void addBytesAvx2(const std::uint8_t* bytes, std::uint16_t* sums, int n) {
   addBytesImpl(bytes, sums, n);
+}
+[[gnu::target("avx2")]] ByteSpan nonZeroSpanAvx2(const std::uint8_t* p, int n) { return nonZeroSpanImpl(p, n); }
+[[gnu::target("avx2")]] ByteSpan removedSpanAvx2(const std::uint8_t* after, const std::uint8_t* before, int n,
+                                                 bool& subset) {
+  return removedSpanImpl(after, before, n, subset);
 }
 [[gnu::target("avx2")]] float windowSumsAvx2(const float* lo, const float* mid, const float* hi, int n, float* out) {
   return windowSumsImpl<8>(lo, mid, hi, n, out);
@@ -715,6 +790,11 @@ void windowMatchBaseline(const std::uint8_t* left, const std::uint8_t* right, in
 }
 
 void addBytesBaseline(const std::uint8_t* bytes, std::uint16_t* sums, int n) { addBytesImpl(bytes, sums, n); }
+
+ByteSpan nonZeroSpanBaseline(const std::uint8_t* p, int n) { return nonZeroSpanImpl(p, n); }
+ByteSpan removedSpanBaseline(const std::uint8_t* after, const std::uint8_t* before, int n, bool& subset) {
+  return removedSpanImpl(after, before, n, subset);
+}
 
 void rowExcessBaseline(const int* counts, int median, int min_excess, int row, const int* last_row, int n, int* excess,
                        int* sum) {
@@ -832,6 +912,20 @@ bool kthSmallestFrom(const int* counts, int n, int k, int previous, int max_step
   if (useAvx2()) return kthSmallestAvx2(counts, n, k, previous, max_steps, value);
 #endif
   return kthSmallestBaseline(counts, n, k, previous, max_steps, value);
+}
+
+ByteSpan nonZeroSpan(const std::uint8_t* p, int n) {
+#ifdef SG_SIMD_X86
+  if (useAvx2()) return nonZeroSpanAvx2(p, n);
+#endif
+  return nonZeroSpanBaseline(p, n);
+}
+
+ByteSpan removedSpan(const std::uint8_t* after, const std::uint8_t* before, int n, bool& subset) {
+#ifdef SG_SIMD_X86
+  if (useAvx2()) return removedSpanAvx2(after, before, n, subset);
+#endif
+  return removedSpanBaseline(after, before, n, subset);
 }
 
 int kthSmallest(const int* counts, int n, int k) {

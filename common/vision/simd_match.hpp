@@ -57,6 +57,17 @@ constexpr int windowMatchScratchSize(int span, int half) { return kWindowGroup *
 void windowMatchRow(const std::uint8_t* left, const std::uint8_t* right, int width, int x0, int x1, int d0, int d1,
                     int grey_tolerance, int half, std::uint8_t* scratch, std::uint8_t* out);
 
+// Where a predicate holds along a row: the first pixel, one past the last (both n when
+// nowhere) and how many.
+struct ByteSpan {
+  int first = 0, end = 0, count = 0;
+};
+// Feature rows: the nonzero bytes of p[0, n).
+ByteSpan nonZeroSpan(const std::uint8_t* p, int n);
+// A row after pixels were taken out of it: the pixels of `before` that are 0 in `after`.
+// `subset` tells whether every nonzero pixel of `after` is the pixel of `before` there.
+ByteSpan removedSpan(const std::uint8_t* after, const std::uint8_t* before, int n, bool& subset);
+
 // sums[i] += bytes[i] (modulo 2^16) for i in [0, n): per-column counts of a 0/1 mask row.
 void addBytes(const std::uint8_t* bytes, std::uint16_t* sums, int n);
 

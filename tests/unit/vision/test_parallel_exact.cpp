@@ -734,6 +734,50 @@ TEST(FastObstacles, KthSmallestFromAPreviousValueIsTheSelectedOne) {
   EXPECT_GT(declined, 100);
 }
 
+TEST(FastCorrelation, RowSpansMatchAScalarScan) {
+  cv::RNG rng(91);
+  for (int trial = 0; trial < 3000; ++trial) {
+    const int n = trial < 100 ? trial : rng.uniform(1, 2000);
+    std::vector<std::uint8_t> before(static_cast<std::size_t>(n)), after(static_cast<std::size_t>(n));
+    const double density = rng.uniform(0.0, 1.0) < 0.2 ? 0.002 : rng.uniform(0.0, 1.0);
+    for (int x = 0; x < n; ++x) {
+      before[static_cast<std::size_t>(x)] = rng.uniform(0.0, 1.0) < density ? static_cast<std::uint8_t>(rng.uniform(1, 256)) : 0;
+      const bool removed = rng.uniform(0.0, 1.0) < 0.5;
+      after[static_cast<std::size_t>(x)] = removed ? 0 : before[static_cast<std::size_t>(x)];
+    }
+    const bool foreign = trial % 5 == 0 && n > 0;
+    if (foreign) after[static_cast<std::size_t>(rng.uniform(0, n))] = 7;  // may or may not be `before`'s pixel
+    // The scalar scans the spans stand for.
+    int first = n, end = n, count = 0, rfirst = n, rend = n, rcount = 0;
+    bool subset = true;
+    for (int x = 0; x < n; ++x) {
+      const std::uint8_t a = after[static_cast<std::size_t>(x)], b = before[static_cast<std::size_t>(x)];
+      if (b != 0) {
+        if (first == n) first = x;
+        end = x + 1;
+        ++count;
+      }
+      if (b != 0 && a == 0) {
+        if (rfirst == n) rfirst = x;
+        rend = x + 1;
+        ++rcount;
+      }
+      subset = subset && (a == 0 || a == b);
+    }
+    SCOPED_TRACE(std::to_string(n) + " pixels, trial " + std::to_string(trial));
+    const simd::ByteSpan f = simd::nonZeroSpan(before.data(), n);
+    ASSERT_EQ(f.count, count);
+    ASSERT_EQ(f.first, first);
+    ASSERT_EQ(f.end, end);
+    bool got_subset = !subset;
+    const simd::ByteSpan r = simd::removedSpan(after.data(), before.data(), n, got_subset);
+    ASSERT_EQ(got_subset, subset);
+    ASSERT_EQ(r.count, rcount);
+    ASSERT_EQ(r.first, rfirst);
+    ASSERT_EQ(r.end, rend);
+  }
+}
+
 TEST(FastObstacles, KthSmallestByBisectionIsTheSelectedValue) {
   cv::RNG rng(77);
   for (int trial = 0; trial < 2000; ++trial) {
