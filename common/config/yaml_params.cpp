@@ -9,6 +9,11 @@ namespace detail {
 
 void YamlReader::rejectUnknownKeys() const {
   for (const auto& entry : node_) {
+    // A key written as a list or a mapping ("? a: 1") names nothing.
+    if (!entry.first.IsScalar())
+      throw ParamError(file_ + ": line " + std::to_string(entry.first.Mark().line + 1) + ": a key" +
+                       (prefix_.empty() ? std::string() : " under '" + prefix_ + "'") +
+                       " is not a name (a list or a mapping)");
     const std::string key = entry.first.as<std::string>();
     if (std::find(seen_.begin(), seen_.end(), key) == seen_.end()) {
       std::string known;

@@ -70,6 +70,17 @@ TEST(Params, YamlUnknownKeyIsRejected) {
   EXPECT_NE(msg.find("test.yaml"), std::string::npos) << msg;
 }
 
+TEST(Params, YamlKeyThatIsNotANameIsRejected) {
+  // "? a: 1" makes the mapping {a: 1} a key (found by the configuration fuzzer).
+  OuterParams p;
+  const std::string msg =
+      errorOf([&] { loadParams(YAML::Load("inner:\n  spacing_m: 2.0\n  ? window_px: 3\n"), p, "test.yaml"); });
+  EXPECT_NE(msg.find("test.yaml"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("line 3"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("'inner'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("not a name"), std::string::npos) << msg;
+}
+
 TEST(Params, YamlWrongTypeIsRejected) {
   OuterParams p;
   const std::string msg = errorOf([&] { loadParams(YAML::Load("window_px: wide"), p, "test.yaml"); });
