@@ -9,12 +9,7 @@ namespace detail {
 
 void YamlReader::rejectUnknownKeys() const {
   for (const auto& entry : node_) {
-    // A key written as a list or a mapping ("? a: 1") names nothing.
-    if (!entry.first.IsScalar())
-      throw ParamError(file_ + ": line " + std::to_string(entry.first.Mark().line + 1) + ": a key" +
-                       (prefix_.empty() ? std::string() : " under '" + prefix_ + "'") +
-                       " is not a name (a list or a mapping)");
-    const std::string key = entry.first.as<std::string>();
+    const std::string key = keyName(entry.first, file_, prefix_);
     if (std::find(seen_.begin(), seen_.end(), key) == seen_.end()) {
       std::string known;
       for (const auto& k : seen_) known += (known.empty() ? "" : ", ") + k;
@@ -24,6 +19,14 @@ void YamlReader::rejectUnknownKeys() const {
 }
 
 }  // namespace detail
+
+std::string keyName(const YAML::Node& key, const std::string& file, const std::string& prefix) {
+  if (!key.IsScalar())
+    throw ParamError(file + ": line " + std::to_string(key.Mark().line + 1) + ": a key" +
+                     (prefix.empty() ? std::string() : " under '" + prefix + "'") +
+                     " is not a name (a list or a mapping)");
+  return key.Scalar();
+}
 
 YAML::Node loadYamlFile(const std::string& path) {
   if (!std::filesystem::is_regular_file(path)) throw ParamError(path + ": no such file");

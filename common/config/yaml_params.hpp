@@ -80,4 +80,9 @@ void loadParams(const YAML::Node& node, P& params, const std::string& file, cons
 // and returns its root node.
 YAML::Node loadYamlFile(const std::string& path);
 
+// The name a mapping's key gives (`key` from iterating a mapping of `file`, under the group
+// `prefix`, empty at the top). A key written as a list or a mapping ("? a: 1") names nothing: a
+// ParamError with the file, the line and the group.
+std::string keyName(const YAML::Node& key, const std::string& file, const std::string& prefix = "");
+
 }  // namespace sg

@@ -12,7 +12,7 @@ DetectorConfig loadDetectorConfig(const std::string& path) {
   if (!root.IsMap()) throw ParamError(path + ": the document must be a mapping");
   DetectorParams& d = config.detector;
   for (const auto& entry : root) {
-    const std::string key = entry.first.as<std::string>();
+    const std::string key = keyName(entry.first, path);
     const YAML::Node& node = entry.second;
     if (key == "features") {
       loadParams(node, d.features, path, key);
