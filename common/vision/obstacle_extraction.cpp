@@ -729,8 +729,10 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
             std::memcpy(&mw, maskRow(candidate_masks_, remaining, right, y, cx0, cx0 + 4) + cx0, sizeof(mw));
             const std::uint32_t feature = (((lw & 0x7f7f7f7fu) + 0x7f7f7f7fu) | lw) & 0x80808080u;
             const std::uint32_t hit = (mw << 7) & feature;  // mask bytes are 0 or 1
-            const int n = std::popcount(hit);
-            present += std::popcount(feature);
+            // The four flags summed by a multiplication into the top byte (the baseline x86-64
+            // build has no popcount instruction: std::popcount is a library call there).
+            const int n = static_cast<int>(((hit >> 7) * 0x01010101u) >> 24);
+            present += static_cast<int>(((feature >> 7) * 0x01010101u) >> 24);
             matched += n;
             c.y0 = n != 0 && y < c.y0 ? y : c.y0;
             c.y1 = n != 0 ? y : c.y1;
