@@ -1,6 +1,7 @@
 #include "camera/stereo_rig.hpp"
 
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "config/errors.hpp"
@@ -37,6 +38,14 @@ void StereoRig::validate(const std::string& what) const {
 Eigen::Vector3d StereoRig::pointFromPixel(double u, double v, double offset_px) const {
   const double z = depthFromOffset(offset_px);
   return {(u - cx_px) * z / focal_px, (v - cy_px) * z / focal_px, z};
+}
+
+double StereoRig::groundRowPrior(double offset_px) const {
+  if (!mounting) return std::numeric_limits<double>::quiet_NaN();
+  const Mounting& m = *mounting;
+  const double c = std::cos(m.pitch_rad);
+  if (c <= 1e-6) return std::numeric_limits<double>::quiet_NaN();
+  return cy_px + (offset_px * m.height_m / baseline_m - focal_px * std::sin(m.pitch_rad)) / c;
 }
 
 double StereoRig::groundOffsetPrior(double row) const {

@@ -40,6 +40,9 @@ struct StereoRig {
   // d(v) = B / h * ((v - cy) cos(pitch) + f sin(pitch)). <= 0 above the horizon.
   // Requires `mounting`.
   double groundOffsetPrior(double row) const;
+  // Its inverse: the image row where the flat ground of the mounting prior has `offset_px`
+  // (0: the horizon); NaN without a mounting.
+  double groundRowPrior(double offset_px) const;
 };
 
 }  // namespace sg

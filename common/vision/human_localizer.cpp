@@ -183,13 +183,7 @@ double groundRowForOffset(const GroundProfile& ground, const StereoRig& rig, dou
     }
     return kNaN;
   }
-  if (rig.mounting) {
-    const Mounting& m = *rig.mounting;
-    const double c = std::cos(m.pitch_rad);
-    if (c <= 1e-6) return kNaN;
-    return rig.cy_px + (offset_px * m.height_m / rig.baseline_m - rig.focal_px * std::sin(m.pitch_rad)) / c;
-  }
-  return kNaN;
+  return rig.groundRowPrior(offset_px);
 }
 
 HumanLocalizer::HumanLocalizer(const LocalizerParams& params) : params_(params), scanner_(params.symmetry) {

@@ -51,9 +51,8 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
   // ground rows: below the last horizon found, else the mounting's (level ground), with a
   // margin for slopes. The roll matches any row above them itself: only the cost depends on it.
   if (params_.parallel) {
-    double horizon = 0.0;
-    if (have_previous_) horizon = previous_ground_.horizon_row;
-    else if (rig.mounting) horizon = rig.cy_px - rig.focal_px * std::tan(rig.mounting->pitch_rad);
+    double horizon = have_previous_ ? previous_ground_.horizon_row : rig.groundRowPrior(0.0);
+    if (!std::isfinite(horizon)) horizon = 0.0;
     const int margin = left_features.rows / 16;
     correlator_.setStrips(params_.ground.roll_strips,
                           static_cast<int>(std::clamp(horizon, 0.0, static_cast<double>(left_features.rows))) - margin);
