@@ -237,6 +237,17 @@ TEST_F(CliTest, BenchReportsTheDetectionAndTheTargetsCount) {
   EXPECT_LE(t["obstacles_per_frame"].get<double>(), 5.0);
   EXPECT_GE(t["detection_ms"]["median"].get<double>(), t["segmentation_ms"]["median"].get<double>());
   EXPECT_GT(t["ratio_vs_stereobm"].get<double>(), 0.0);
+  // Frame by frame: the figures the medians come from, one per frame, and the slowest named.
+  const nlohmann::json& per = j["per_frame_ms"];
+  for (const char* key : {"segmentation", "detection", "stereobm", "target_segmentation", "target_detection"})
+    ASSERT_EQ(per[key].size(), 2u) << key;
+  const std::vector<double> seg = per["target_segmentation"].get<std::vector<double>>();
+  const std::vector<double> det = per["target_detection"].get<std::vector<double>>();
+  for (std::size_t i = 0; i < seg.size(); ++i) EXPECT_GE(det[i], seg[i]) << "frame " << i;
+  const double median = t["segmentation_ms"]["median"].get<double>();
+  EXPECT_NEAR(0.5 * (seg[0] + seg[1]), median, 1e-9);
+  EXPECT_NE(r.out.find("slowest frame: segmentation "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(seg[0] >= seg[1] ? "(frame 1 of 2)" : "(frame 2 of 2)"), std::string::npos) << r.out;
 }
 
 TEST_F(CliTest, BenchWithoutARoundIsBadUsage) {
