@@ -811,6 +811,50 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         }
         return comp;
       };
+      // Fast path: the cells of the histogram box, and those within reach around it, are counted
+      // a band of cell rows at a time over whole spans (present and matched pixels per column,
+      // summed per cell); cellAt then adds the matched pixels' box of the active ones only, which
+      // alone the connected sets read. Cells beyond the band, or with rows below the stripe's
+      // floor, are left to cellAt.
+      if (fast_ && cs == 4) {
+        const int i0 = std::max(0, x0 / cs - reach), i1 = std::min(std::min(gw - 1, x1 / cs + reach), cols / cs - 1);
+        const int j0 = std::max(0, y0 / cs - reach), j1 = std::min(gh - 1, std::min(y1 / cs, gh - 1) + reach);
+        const int xa = i0 * cs, xb = (i1 + 1) * cs;  // one past the last column
+        band_present_.resize(static_cast<std::size_t>(cols));
+        band_matched_.resize(static_cast<std::size_t>(cols));
+        std::uint8_t* fp = band_present_.data();
+        std::uint8_t* hp = band_matched_.data();
+        for (int j = j0; j <= j1 && i0 <= i1; ++j) {
+          const int cy1 = std::min((j + 1) * cs, limit + 1);
+          if (cy1 - 1 > stripe_floor) break;  // this band and the ones below it: cellAt
+          std::fill(fp + xa, fp + xb, std::uint8_t{0});
+          std::fill(hp + xa, hp + xb, std::uint8_t{0});
+          for (int y = j * cs; y < cy1; ++y) {
+            const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+            const std::uint8_t* mk = maskRow(candidate_masks_, remaining, right, y, xa, xb);
+            for (int x = xa; x < xb; ++x) {
+              const std::uint8_t f = l[x] != 0 ? 1 : 0;
+              fp[x] = static_cast<std::uint8_t>(fp[x] + f);
+              hp[x] = static_cast<std::uint8_t>(hp[x] + (mk[x] & f));  // mask bytes are 0 or 1
+            }
+          }
+          for (int i = i0; i <= i1; ++i) {
+            const int k = j * gw + i;
+            Cell& c = cell_[static_cast<std::size_t>(k)];
+            if (c.state != kCellUnknown) continue;
+            const int x = i * cs;
+            const int matched = hp[x] + hp[x + 1] + hp[x + 2] + hp[x + 3];
+            const int present = fp[x] + fp[x + 1] + fp[x + 2] + fp[x + 3];
+            if (matched >= params_.min_cell_matches && matched >= params_.min_match_fraction * present) {
+              cellAt(i, j);  // active: its box too
+              continue;
+            }
+            touched_cells_.push_back(k);
+            c.matched = matched;
+            c.state = kCellInactive;
+          }
+        }
+      }
       Component strongest, strongest_tall;
       int components = 0;
       for (int j = y0 / cs; j <= std::min(y1 / cs, gh - 1); ++j)

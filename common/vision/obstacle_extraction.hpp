@@ -320,6 +320,7 @@ class ObstacleExtractor {
   };
   std::vector<Cell> cell_;
   std::array<int, 8> block_count_{}, block_present_{};  // growth: a block of columns' evidence
+  std::vector<std::uint8_t> band_present_, band_matched_;  // cells: per column of a band of cell rows
   std::vector<int> touched_cells_;  // cells evaluated this iteration (reset before the next)
   std::vector<int> flood_;   // cells still to visit while growing a cluster
   std::vector<ObstacleCluster> kept_;  // joinPlainFaces: the obstacles left after a join
