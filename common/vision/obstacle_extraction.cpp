@@ -19,15 +19,20 @@ namespace {
 // window [x - half, x + half] (inside the row, at least the centre) has a right feature within tol.
 inline bool matchAt(const std::uint8_t* l, const std::uint8_t* r, int x, int d0, int d1, int tol, int half,
                     int width) {
-  if (l[x] == 0) return false;
+  const int a0 = l[x];
+  if (a0 == 0) return false;
   const int k0 = std::max(-half, -x);
   const int k1 = std::min(half, width - 1 - x);
   for (int d = std::max(d0, 0); d <= d1 && d <= x; ++d) {
+    // The centre first: at most offsets it already fails.
+    const int b0 = r[x - d];
+    if (b0 == 0 || std::abs(a0 - b0) > tol) continue;
     bool ok = true;
     for (int k = std::max(k0, d - x); k <= k1 && ok; ++k) {
+      if (k == 0) continue;
       const int a = l[x + k];
       const int b = r[x + k - d];
-      ok = a == 0 ? k != 0 : (b != 0 && std::abs(a - b) <= tol);
+      ok = a == 0 || (b != 0 && std::abs(a - b) <= tol);
     }
     if (ok) return true;
   }
