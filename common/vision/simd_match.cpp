@@ -278,8 +278,9 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
   const U8x32 vtop = splat(255 - tol);
   const U8x32 zero{};
   for (int d = d0; d <= d1; ++d) {
-    int x = std::max(x0, d);
-    for (; x + kLanes <= x1; x += kLanes) {
+    const int xs = std::max(x0, d);
+    // Marks are ORed in: the last vector may overlap the one before it (same values again).
+    forVectors(xs, x1, [&](int x) __attribute__((always_inline)) {
       const U8x32 a = load(left + x);
       const U8x32 b = load(right + x - d);
       U8x32 lo, width;
@@ -288,12 +289,11 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
       U8x32 old = load(marks + x);
       old |= m;
       std::memcpy(marks + x, &old, sizeof(old));
-    }
-    for (; x < x1; ++x) {
+    }, [&](int x) __attribute__((always_inline)) {
       const int a = left[x];
       const int b = right[x - d];
       if (a != 0 && b != 0 && std::abs(a - b) <= tol) marks[x] = 0xFF;
-    }
+    });
   }
 }
 
