@@ -445,6 +445,8 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   banned_.assign(static_cast<std::size_t>(offsets), 0);
   row_median_.assign(static_cast<std::size_t>(rows), 0);
   median_stale_.assign(static_cast<std::size_t>(rows), 1);
+  mask_stale_.assign(static_cast<std::size_t>(rows), 0);
+  candidate_masks_kept_ = false;  // a new frame: none of the previous one's masks holds
   if (fast_) {  // every row is added to the offset histogram's sums afresh
     row_excess_.assign(static_cast<std::size_t>(rows) * static_cast<std::size_t>(offsets), 0);
     hist_sum_.assign(static_cast<std::size_t>(offsets), 0);
@@ -596,6 +598,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         uncountRow(y, first_cleared, last_cleared + 1);
         changed_rows[static_cast<std::size_t>(y)] = 1;
         median_stale_[static_cast<std::size_t>(y)] = 1;
+        mask_stale_[static_cast<std::size_t>(y)] = 1;
       }
     }
     return count;
@@ -620,7 +623,17 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
 
     // Matched pixels at d* (+-tol), a row at a time on first use, kept for this candidate:
     // the histograms below need whole rows only where the offset shows, elsewhere the stripe.
-    resetMasks(candidate_masks_, best - tol, best + tol);
+    if (fast_ && candidate_masks_kept_ && candidate_masks_.d0 == best - tol && candidate_masks_.d1 == best + tol) {
+      // The previous candidate's offset again: its masks still hold on every row no sweep has
+      // changed since.
+      for (int y = 0; y < rows; ++y)
+        if (mask_stale_[static_cast<std::size_t>(y)])
+          candidate_masks_.lo[static_cast<std::size_t>(y)] = candidate_masks_.hi[static_cast<std::size_t>(y)] = 0;
+    } else {
+      resetMasks(candidate_masks_, best - tol, best + tol);
+    }
+    std::fill(mask_stale_.begin(), mask_stale_.end(), std::uint8_t{0});
+    candidate_masks_kept_ = true;
     auto maskAt = [&](int y, int x) -> int { return maskRow(candidate_masks_, remaining, right, y, x, x + 1)[x]; };
     // Per column, the rows above the ground of d* (on a transversal slope they differ).
     col_limit_.resize(static_cast<std::size_t>(cols));

@@ -294,6 +294,8 @@ class ObstacleExtractor {
   double nearest_offset_ = 0.0;      // offsets below this are beyond max_range_m
   std::vector<int> row_median_;
   std::vector<std::uint8_t> median_stale_;  // rows whose match counts changed since their median
+  std::vector<std::uint8_t> mask_stale_;    // rows a sweep changed since the candidate masks were reset
+  bool candidate_masks_kept_ = false;       // the candidate masks describe this frame
   std::vector<int> row_values_;
   std::vector<float> col_hist_;
   std::vector<float> row_hist_;
