@@ -457,6 +457,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   sweep_row_.resize(static_cast<std::size_t>(cols));
   offset_runs_.reserve(static_cast<std::size_t>(cols));  // a box sweep has at most a run per column
   col_count_.resize(static_cast<std::size_t>(cols));
+  col_count_bytes_.resize(static_cast<std::size_t>(cols));
   if (params_.cell_px > 0) {
     const std::size_t cells = static_cast<std::size_t>((cols + params_.cell_px - 1) / params_.cell_px) *
                               static_cast<std::size_t>((rows + params_.cell_px - 1) / params_.cell_px);
@@ -649,19 +650,31 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     auto columnHistogram = [&](int ya, int yb, bool showing_rows_only, int xa, int xb) {
       std::uint16_t* h = col_count_.data();
       std::fill(h + xa, h + xb + 1, std::uint16_t{0});
+      // Fast path: rows every column shows are counted in bytes, taken into h every 255 rows.
+      std::uint8_t* h8 = col_count_bytes_.data();
+      const int n = xb - xa + 1;
+      int in_bytes = 0;
+      if (fast_) std::fill(h8 + xa, h8 + xb + 1, std::uint8_t{0});
       const int* lim = col_limit_.data();
       for (int y = ya; y <= yb; ++y) {
         if (showing_rows_only &&
             matches.ptr<int>(y)[best] - row_median_[static_cast<std::size_t>(y)] < params_.min_row_excess)
           continue;
         const std::uint8_t* mk = maskRow(candidate_masks_, remaining, right, y, xa, xb + 1);
-        if (y <= stripe_floor) {  // every column shows this row
-          if (fast_) simd::addBytes(mk + xa, h + xa, xb - xa + 1);
-          else for (int x = xa; x <= xb; ++x) h[x] = static_cast<std::uint16_t>(h[x] + mk[x]);
+        if (y <= stripe_floor && fast_) {  // every column shows this row
+          simd::addBytesToBytes(mk + xa, h8 + xa, n);
+          if (++in_bytes == 255) {
+            simd::addBytes(h8 + xa, h + xa, n);
+            std::fill(h8 + xa, h8 + xb + 1, std::uint8_t{0});
+            in_bytes = 0;
+          }
+        } else if (y <= stripe_floor) {
+          for (int x = xa; x <= xb; ++x) h[x] = static_cast<std::uint16_t>(h[x] + mk[x]);
         } else {
           for (int x = xa; x <= xb; ++x) h[x] = static_cast<std::uint16_t>(h[x] + (y <= lim[x] ? mk[x] : 0));
         }
       }
+      if (in_bytes > 0) simd::addBytes(h8 + xa, h + xa, n);
       col_hist_.resize(static_cast<std::size_t>(cols));
       for (int x = xa; x <= xb; ++x) col_hist_[static_cast<std::size_t>(x)] = static_cast<float>(h[x]);
     };

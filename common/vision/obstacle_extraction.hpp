@@ -309,6 +309,7 @@ class ObstacleExtractor {
   std::vector<std::uint8_t> match_scratch_;
   std::vector<std::uint8_t> sweep_row_;
   std::vector<std::uint16_t> col_count_;  // per column: matches (at most the row count, < 2^16)
+  std::vector<std::uint8_t> col_count_bytes_;  // ... of up to 255 rows at a time (fast path)
   cv::Mat right_padded_;                  // right features with the correlation kernel's zeros in front
   std::vector<std::uint8_t> cleared_;     // a row's cleared left pixels (their grey values), else 0
   std::vector<int> removed_counts_;       // their matches per offset

@@ -663,6 +663,16 @@ typedef std::uint16_t U16x16 __attribute__((vector_size(32)));
   for (; i < n; ++i) sums[i] = static_cast<std::uint16_t>(sums[i] + bytes[i]);
 }
 
+[[gnu::always_inline]] inline void addBytesToBytesImpl(const std::uint8_t* bytes, std::uint8_t* sums, int n) {
+  int i = 0;
+  for (; i + kLanes <= n; i += kLanes) {
+    U8x32 s = load(sums + i);
+    s += load(bytes + i);
+    std::memcpy(sums + i, &s, sizeof(s));
+  }
+  for (; i < n; ++i) sums[i] = static_cast<std::uint8_t>(sums[i] + bytes[i]);
+}
+
 // The pixels of [0, n) where flags(x) holds: the first, one past the last, and how many.
 // vflags(x) gives the flags of pixels x .. x + kLanes - 1 as 0/1 bytes, sflag(x) one pixel's.
 template <class VFlags, class SFlag>
@@ -738,6 +748,9 @@ template <class VFlags, class SFlag>
 [[gnu::target("avx2")]] void addBytesAvx2(const std::uint8_t* bytes, std::uint16_t* sums, int n) {
   addBytesImpl(bytes, sums, n);
 }
+[[gnu::target("avx2")]] void addBytesToBytesAvx2(const std::uint8_t* bytes, std::uint8_t* sums, int n) {
+  addBytesToBytesImpl(bytes, sums, n);
+}
 [[gnu::target("avx2")]] ByteSpan nonZeroSpanAvx2(const std::uint8_t* p, int n) { return nonZeroSpanImpl(p, n); }
 [[gnu::target("avx2")]] ByteSpan removedSpanAvx2(const std::uint8_t* after, const std::uint8_t* before, int n,
                                                  bool& subset) {
@@ -790,6 +803,9 @@ void windowMatchBaseline(const std::uint8_t* left, const std::uint8_t* right, in
 }
 
 void addBytesBaseline(const std::uint8_t* bytes, std::uint16_t* sums, int n) { addBytesImpl(bytes, sums, n); }
+void addBytesToBytesBaseline(const std::uint8_t* bytes, std::uint8_t* sums, int n) {
+  addBytesToBytesImpl(bytes, sums, n);
+}
 
 ByteSpan nonZeroSpanBaseline(const std::uint8_t* p, int n) { return nonZeroSpanImpl(p, n); }
 ByteSpan removedSpanBaseline(const std::uint8_t* after, const std::uint8_t* before, int n, bool& subset) {
@@ -897,6 +913,13 @@ void addBytes(const std::uint8_t* bytes, std::uint16_t* sums, int n) {
   if (useAvx2()) return addBytesAvx2(bytes, sums, n);
 #endif
   addBytesBaseline(bytes, sums, n);
+}
+
+void addBytesToBytes(const std::uint8_t* bytes, std::uint8_t* sums, int n) {
+#ifdef SG_SIMD_X86
+  if (useAvx2()) return addBytesToBytesAvx2(bytes, sums, n);
+#endif
+  addBytesToBytesBaseline(bytes, sums, n);
 }
 
 void replaceRowExcess(const int* counts, int median, int min_excess, int row, const int* last_row, int n, int* excess,

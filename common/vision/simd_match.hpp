@@ -70,6 +70,9 @@ ByteSpan removedSpan(const std::uint8_t* after, const std::uint8_t* before, int 
 
 // sums[i] += bytes[i] (modulo 2^16) for i in [0, n): per-column counts of a 0/1 mask row.
 void addBytes(const std::uint8_t* bytes, std::uint16_t* sums, int n);
+// sums[i] += bytes[i] (modulo 2^8) for i in [0, n): up to 255 mask rows counted in bytes
+// before addBytes takes them into the wider counts.
+void addBytesToBytes(const std::uint8_t* bytes, std::uint8_t* sums, int n);
 
 // Obstacle offset histogram, one row: for d in [0, n), the row's excess e = counts[d] -
 // median where it is at least min_excess and row <= last_row[d], else 0, replaces its

@@ -534,6 +534,22 @@ TEST(FastObstacles, AddBytesMatchesTheScalarSum) {
   }
 }
 
+TEST(FastObstacles, AddBytesToBytesMatchesTheScalarSumModulo256) {
+  cv::RNG rng(37);
+  for (const int n : {0, 1, 31, 32, 33, 64, 100, 1242}) {
+    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(n)), fast(static_cast<std::size_t>(n)), ref;
+    for (int i = 0; i < n; ++i) {
+      bytes[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(rng.uniform(0, 256));
+      fast[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(rng.uniform(0, 256));  // wraps past 255
+    }
+    ref = fast;
+    for (int i = 0; i < n; ++i)
+      ref[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(ref[static_cast<std::size_t>(i)] + bytes[static_cast<std::size_t>(i)]);
+    simd::addBytesToBytes(bytes.data(), fast.data(), n);
+    EXPECT_EQ(fast, ref) << "n " << n;
+  }
+}
+
 TEST(FastObstacles, WindowMatchRowMatchesTheReferenceForAnyOffsetsWindowAndSpan) {
   cv::RNG rng(23);
   std::vector<std::uint8_t> left, right, scratch, fast, ref;
