@@ -220,15 +220,6 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
   return __builtin_convertvector(v, I16x16);
 }
 
-[[gnu::always_inline]] inline int scalarEdge(const std::uint8_t* pm, const std::uint8_t* p0, const std::uint8_t* pp,
-                                             int x, int w, int thr) {
-  const int xm = x > 0 ? x - 1 : 0;
-  const int xp = x < w - 1 ? x + 1 : w - 1;
-  const int gx = (pm[xp] + 2 * p0[xp] + pp[xp]) - (pm[xm] + 2 * p0[xm] + pp[xm]);
-  const int gy = (pp[xm] + 2 * pp[x] + pp[xp]) - (pm[xm] + 2 * pm[x] + pm[xp]);
-  return (std::abs(gx) + std::abs(gy)) >= thr ? 0xFF : 0;
-}
-
 [[gnu::always_inline]] inline void featureRowImpl(const std::uint8_t* pm, const std::uint8_t* p0,
                                                   const std::uint8_t* pp, int w, int thr, int r,
                                                   std::uint8_t* scratch, std::uint8_t* out) {
@@ -236,24 +227,63 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
   std::uint8_t* e = scratch + r;
   std::memset(scratch, 0, static_cast<std::size_t>(r));
   std::memset(e + w, 0, static_cast<std::size_t>(r + kLanes));
+  // Sobel separated: per column the vertical sum v = pm + 2 p0 + pp and difference
+  // dv = pp - pm (16 bits, the end columns repeated once beyond the row), then
+  // gx = v[x + 1] - v[x - 1] and gy = dv[x - 1] + 2 dv[x] + dv[x + 1]: the same integers as
+  // the 3x3 masks with the row ends replicated.
+  std::uint8_t* const sums = scratch + w + 2 * r + 2 * kLanes;
+  std::uint8_t* const vsum = sums + 2;                          // column x at vsum + 2 x
+  std::uint8_t* const vdif = sums + 2 * (w + 2 + kLanes) + 2;   // the same for dv
+  auto put = [](std::uint8_t* row, int x, int value) __attribute__((always_inline)) {
+    const auto v = static_cast<std::int16_t>(value);
+    std::memcpy(row + 2 * x, &v, sizeof(v));
+  };
+  auto get = [](const std::uint8_t* row, int x) __attribute__((always_inline)) {
+    std::int16_t v;
+    std::memcpy(&v, row + 2 * x, sizeof(v));
+    return static_cast<int>(v);
+  };
+  auto loadSums = [](const std::uint8_t* row, int x) __attribute__((always_inline)) {
+    I16x16 v;
+    std::memcpy(&v, row + 2 * x, sizeof(v));
+    return v;
+  };
   constexpr int kStep = 16;
   int x = 0;
-  if (w > 0) e[0] = static_cast<std::uint8_t>(scalarEdge(pm, p0, pp, 0, w, thr));
-  x = 1;
+  for (; x + kStep <= w; x += kStep) {
+    const I16x16 a = widen(pm + x), b = widen(p0 + x), c = widen(pp + x);
+    const I16x16 v = a + b + b + c;
+    const I16x16 dv = c - a;
+    std::memcpy(vsum + 2 * x, &v, sizeof(v));
+    std::memcpy(vdif + 2 * x, &dv, sizeof(dv));
+  }
+  for (; x < w; ++x) {
+    put(vsum, x, pm[x] + 2 * p0[x] + pp[x]);
+    put(vdif, x, pp[x] - pm[x]);
+  }
+  if (w > 0) {
+    put(vsum, -1, get(vsum, 0));
+    put(vdif, -1, get(vdif, 0));
+    put(vsum, w, get(vsum, w - 1));
+    put(vdif, w, get(vdif, w - 1));
+  }
   // |gx| + |gy| <= 8 * 255 fits 16 bits.
   const I16x16 vthr = I16x16{} + static_cast<std::int16_t>(std::min(thr, 32767));
-  for (; x + kStep <= w - 1; x += kStep) {
-    const I16x16 am = widen(pm + x - 1), a0 = widen(pm + x), ap = widen(pm + x + 1);
-    const I16x16 bm = widen(p0 + x - 1), bp = widen(p0 + x + 1);
-    const I16x16 cm = widen(pp + x - 1), c0 = widen(pp + x), cp = widen(pp + x + 1);
-    const I16x16 gx = (ap + bp + bp + cp) - (am + bm + bm + cm);
-    const I16x16 gy = (cm + c0 + c0 + cp) - (am + a0 + a0 + ap);
+  x = 0;
+  for (; x + kStep <= w; x += kStep) {
+    const I16x16 gx = loadSums(vsum, x + 1) - loadSums(vsum, x - 1);
+    const I16x16 d0 = loadSums(vdif, x);
+    const I16x16 gy = loadSums(vdif, x - 1) + d0 + d0 + loadSums(vdif, x + 1);
     const I16x16 ax = gx < 0 ? -gx : gx;
     const I16x16 ay = gy < 0 ? -gy : gy;
     const auto edge = __builtin_convertvector((ax + ay) >= vthr, U8x16);  // -1 -> 0xFF
     std::memcpy(e + x, &edge, sizeof(edge));
   }
-  for (; x < w; ++x) e[x] = static_cast<std::uint8_t>(scalarEdge(pm, p0, pp, x, w, thr));
+  for (; x < w; ++x) {
+    const int gx = get(vsum, x + 1) - get(vsum, x - 1);
+    const int gy = get(vdif, x - 1) + 2 * get(vdif, x) + get(vdif, x + 1);
+    e[x] = std::abs(gx) + std::abs(gy) >= thr ? 0xFF : 0;
+  }
   // Dilation and masked copy.
   const U8x32 one = splat(1);
   x = 0;

@@ -36,7 +36,11 @@ void accumulateMatchesWindow(const std::uint8_t* left, const std::uint8_t* right
 // reaches `threshold`; edges dilated horizontally by `radius`; out[x] =
 // max(p0[x], 1) inside the dilated mask, else 0. `scratch` holds at least
 // featureScratchSize(width, radius) bytes.
-constexpr int featureScratchSize(int width, int radius) { return width + 2 * radius + 2 * kLanes; }
+constexpr int featureScratchSize(int width, int radius) {
+  // The edge bytes with their padding, then two rows of 16-bit column sums (one column of
+  // padding on each side, a vector of slack).
+  return width + 2 * radius + 2 * kLanes + 2 * 2 * (width + 2 + kLanes);
+}
 void featureRow(const std::uint8_t* pm, const std::uint8_t* p0, const std::uint8_t* pp, int width, int threshold,
                 int radius, std::uint8_t* scratch, std::uint8_t* out);
 
