@@ -112,16 +112,12 @@ void Correlator::correlateRowFast(const cv::Mat& left, const cv::Mat* before, co
     } else {
       std::fill(m, m + offsets, 0);
       if (with_strips) {
-        // Strip by strip (the same pixels, split at the strips' borders), then summed.
+        // Strip by strip (the same pixels, split at the strips' borders), each flushed into its
+        // own counts and the row's.
         const int strips = strips_.strips;
-        for (int k = 0; k < strips; ++k) {
-          int* c = strips_.counts.data() + (static_cast<std::size_t>(y) * static_cast<std::size_t>(strips) +
-                                            static_cast<std::size_t>(k)) * static_cast<std::size_t>(offsets);
-          std::fill(c, c + offsets, 0);
-          const int x0 = std::max(l0, k * w / strips), x1 = std::min(l1, (k + 1) * w / strips);
-          if (x0 < x1) simd::accumulateMatches(l, nullptr, rp, x0, x1, offsets, tol, c);
-          for (int d = 0; d < offsets; ++d) m[d] += c[d];
-        }
+        int* c = strips_.counts.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(strips) *
+                                             static_cast<std::size_t>(offsets);
+        simd::accumulateMatchesStrips(l, rp, l0, l1, offsets, tol, strip_bounds_.data(), strips, c, m);
       } else {
         simd::accumulateMatches(l, nullptr, rp, l0, l1, offsets, tol, m);
       }
@@ -164,6 +160,8 @@ void Correlator::compute(const cv::Mat& left, const cv::Mat& right, cv::Mat& sco
     strips_.first_row = std::clamp(strip_first_row_, 0, left.rows);
     strips_.counts.resize(static_cast<std::size_t>(left.rows) * static_cast<std::size_t>(strip_count_) *
                           static_cast<std::size_t>(params_.offsets));
+    strip_bounds_.resize(static_cast<std::size_t>(strip_count_) + 1);
+    for (int k = 0; k <= strip_count_; ++k) strip_bounds_[static_cast<std::size_t>(k)] = k * left.cols / strip_count_;
   }
   forEachRow(left.rows, [&](int y, std::vector<std::uint8_t>& scratch) {
     correlateRowFast(left, nullptr, right, y, score, matches, scratch, with_strips && y >= strips_.first_row);

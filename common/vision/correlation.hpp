@@ -106,6 +106,7 @@ class Correlator {
   cv::Mat scratch_matches_;
   std::vector<std::vector<std::uint8_t>> band_scratch_;  // per band: padded right row, reused across frames
   int strip_count_ = 0, strip_first_row_ = 0;
+  std::vector<int> strip_bounds_;  // the strips' first columns, then the width
   StripMatches strips_;
 };
 

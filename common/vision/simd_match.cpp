@@ -86,6 +86,44 @@ typedef std::int32_t I32x8 __attribute__((vector_size(32)));
   acc = U8x32{};
 }
 
+// counts[0..7] = the eight bytes of `part`, widened.
+[[gnu::always_inline]] inline void storeWidened(U8x8 part, int* counts) {
+  const I32x8 c = __builtin_convertvector(part, I32x8);
+  std::memcpy(counts, &c, sizeof(c));
+}
+
+// flushLanes into two count arrays: `strip` gets the lanes (stored when `store`, else added)
+// and `counts` gets them added.
+[[gnu::always_inline]] inline void flushLanesTwice(U8x32& acc, int first_lane_offset, int offsets, int* strip,
+                                                   bool store, int* counts) {
+  static_assert(kLanes == 32);
+  if (first_lane_offset - (kLanes - 1) >= 0 && first_lane_offset < offsets) {
+    const U8x32 r = __builtin_shufflevector(acc, acc, 31, 30, 29, 28, 27, 26, 25, 24, 23, 22, 21, 20, 19, 18, 17, 16,
+                                            15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
+    const int first = first_lane_offset - (kLanes - 1);
+    const U8x8 parts[4] = {__builtin_shufflevector(r, r, 0, 1, 2, 3, 4, 5, 6, 7),
+                           __builtin_shufflevector(r, r, 8, 9, 10, 11, 12, 13, 14, 15),
+                           __builtin_shufflevector(r, r, 16, 17, 18, 19, 20, 21, 22, 23),
+                           __builtin_shufflevector(r, r, 24, 25, 26, 27, 28, 29, 30, 31)};
+    for (int p = 0; p < 4; ++p) {
+      if (store) storeWidened(parts[p], strip + first + 8 * p);
+      else addWidened(parts[p], strip + first + 8 * p);
+      addWidened(parts[p], counts + first + 8 * p);
+    }
+    acc = U8x32{};
+    return;
+  }
+  std::uint8_t lanes[kLanes];
+  std::memcpy(lanes, &acc, sizeof(lanes));
+  for (int j = 0; j < kLanes; ++j) {
+    const int d = first_lane_offset - j;
+    if (d < 0 || d >= offsets) continue;
+    strip[d] = store ? lanes[j] : strip[d] + lanes[j];
+    counts[d] += lanes[j];
+  }
+  acc = U8x32{};
+}
+
 // b matches a when b lies in [lo, hi] = [max(a - tol, 1), min(a + tol, 255)]:
 // (b - lo) mod 256 <= hi - lo. b = 0 wraps to 256 - lo > hi - lo, so non-features never match.
 [[gnu::always_inline]] inline U8x32 matchMask(U8x32 b, U8x32 lo, U8x32 width) {
@@ -176,6 +214,58 @@ template <int NV>
       for (int i = 0; i < nv; ++i) acc[i] -= matchMask(load(base + kLanes * i), vlo, vw);
     }
     if (n > 0) flush();
+  }
+}
+
+// accumulateImpl strip by strip (accumulateMatchesStrips): each strip's first flush stores
+// its counts, so an empty strip gets zeros.
+template <int NV>
+[[gnu::always_inline]] inline void accumulateStripsImpl(const std::uint8_t* left, const std::uint8_t* right, int x0,
+                                                        int x1, int nv_runtime, int offsets, int tol,
+                                                        const int* bounds, int strips, int* strip_counts,
+                                                        int* counts) {
+  constexpr int kMaxVectors = 1024 / kLanes;
+  const int nv = NV > 0 ? NV : nv_runtime;
+  const int dv = nv * kLanes;
+  U8x32 acc[NV > 0 ? NV : kMaxVectors];
+  for (int i = 0; i < nv; ++i) acc[i] = U8x32{};
+  int idx[kMaxGather];
+  for (int k = 0; k < strips; ++k) {
+    int* strip = strip_counts + static_cast<std::size_t>(k) * static_cast<std::size_t>(offsets);
+    bool first = true;
+    auto flush = [&] {
+      for (int i = 0; i < nv; ++i) flushLanesTwice(acc[i], dv - 1 - kLanes * i, offsets, strip, first, counts);
+      first = false;
+    };
+    int x = std::max(x0, bounds[k]);
+    const int xb = std::min(x1, bounds[k + 1]);
+    while (x < xb) {
+      const int n = gatherFeatures(left, nullptr, x, xb, idx);
+      for (int j = 0; j < n; ++j) {
+        const int xi = idx[j];
+        const int a = left[xi];
+        const int lo = std::max(a - tol, 1);
+        const int hi = std::min(a + tol, 255);
+        const U8x32 vlo = splatFromTable(lo);
+        const U8x32 vw = splatFromTable(hi - lo);
+        const std::uint8_t* base = right + xi - (dv - 1);
+        for (int i = 0; i < nv; ++i) acc[i] -= matchMask(load(base + kLanes * i), vlo, vw);
+      }
+      if (n > 0) flush();
+    }
+    if (first) std::fill(strip, strip + offsets, 0);
+  }
+}
+
+[[gnu::always_inline]] inline void dispatchAccumulateStrips(const std::uint8_t* left, const std::uint8_t* right,
+                                                            int x0, int x1, int offsets, int tol, const int* bounds,
+                                                            int strips, int* strip_counts, int* counts) {
+  const int nv = rightPadding(offsets) / kLanes;
+  switch (nv) {
+    case 4: accumulateStripsImpl<4>(left, right, x0, x1, nv, offsets, tol, bounds, strips, strip_counts, counts); break;
+    default:
+      accumulateStripsImpl<0>(left, right, x0, x1, nv, offsets, tol, bounds, strips, strip_counts, counts);
+      break;
   }
 }
 
@@ -794,6 +884,11 @@ template <class VFlags, class SFlag>
                                             int* counts) {
   dispatchAccumulate(left, skip, right, x0, x1, offsets, tol, counts);
 }
+[[gnu::target("avx2")]] void accumulateStripsAvx2(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1,
+                                                  int offsets, int tol, const int* bounds, int strips,
+                                                  int* strip_counts, int* counts) {
+  dispatchAccumulateStrips(left, right, x0, x1, offsets, tol, bounds, strips, strip_counts, counts);
+}
 [[gnu::target("avx2")]] void windowAvx2(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1,
                                         int d_first, int count, int tol, int* counts) {
   windowImpl(left, right, x0, x1, d_first, count, tol, counts);
@@ -872,6 +967,10 @@ void accumulateBaseline(const std::uint8_t* left, const std::uint8_t* skip, cons
                         int offsets, int tol, int* counts) {
   dispatchAccumulate(left, skip, right, x0, x1, offsets, tol, counts);
 }
+void accumulateStripsBaseline(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int offsets,
+                              int tol, const int* bounds, int strips, int* strip_counts, int* counts) {
+  dispatchAccumulateStrips(left, right, x0, x1, offsets, tol, bounds, strips, strip_counts, counts);
+}
 void windowBaseline(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d_first, int count,
                     int tol, int* counts) {
   windowImpl(left, right, x0, x1, d_first, count, tol, counts);
@@ -904,6 +1003,15 @@ void accumulateMatches(const std::uint8_t* left, const std::uint8_t* skip, const
   if (useAvx2()) return accumulateAvx2(left, skip, right, x0, x1, offsets, grey_tolerance, counts);
 #endif
   accumulateBaseline(left, skip, right, x0, x1, offsets, grey_tolerance, counts);
+}
+
+void accumulateMatchesStrips(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int offsets,
+                             int grey_tolerance, const int* bounds, int strips, int* strip_counts, int* counts) {
+#ifdef SG_SIMD_X86
+  if (useAvx2())
+    return accumulateStripsAvx2(left, right, x0, x1, offsets, grey_tolerance, bounds, strips, strip_counts, counts);
+#endif
+  accumulateStripsBaseline(left, right, x0, x1, offsets, grey_tolerance, bounds, strips, strip_counts, counts);
 }
 
 void accumulateMatchesWindow(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int d_first,

@@ -25,6 +25,12 @@ constexpr int rightPadding(int offsets) { return ((offsets + kLanes - 1) / kLane
 void accumulateMatches(const std::uint8_t* left, const std::uint8_t* skip, const std::uint8_t* right, int x0, int x1,
                        int offsets, int grey_tolerance, int* counts);
 
+// accumulateMatches over [x0, x1) split at the column strips [bounds[k], bounds[k + 1])
+// (k < strips, bounds increasing): strip_counts + k * offsets gets strip k's counts
+// (overwritten, zeros for an empty strip), and `counts` gets all of them added.
+void accumulateMatchesStrips(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1, int offsets,
+                             int grey_tolerance, const int* bounds, int strips, int* strip_counts, int* counts);
+
 // Same for a window of offsets [d_first, d_first + count) with count <= kLanes:
 // counts[i] gets the matches at offset d_first + i. `right` must be readable
 // (and 0) down to index x0 - d_first - kLanes + 1 when that is negative.

@@ -534,6 +534,43 @@ TEST(FastObstacles, AddBytesMatchesTheScalarSum) {
   }
 }
 
+// The correlation split into column strips: each strip's counts as the plain kernel gives them
+// on the strip alone (zeros for a strip without features), and the row's as their sum.
+TEST(FastCorrelation, StripCountsMatchThePlainKernelStripByStrip) {
+  cv::RNG rng(41);
+  for (const int width : {1, 40, 301, 1242}) {
+    for (const int offsets : {40, 100, 128}) {
+      for (const int strips : {1, 3, 8}) {
+        const int pad = simd::rightPadding(offsets);
+        std::vector<std::uint8_t> left(static_cast<std::size_t>(width)), padded(static_cast<std::size_t>(pad + width), 0);
+        for (int x = 0; x < width; ++x) {
+          left[static_cast<std::size_t>(x)] = rng.uniform(0, 3) == 0 ? 0 : static_cast<std::uint8_t>(rng.uniform(1, 256));
+          padded[static_cast<std::size_t>(pad + x)] = rng.uniform(0, 4) == 0 ? 0 : static_cast<std::uint8_t>(rng.uniform(1, 256));
+        }
+        // Strips with no features at all too: a blank run in the middle of the row.
+        for (int x = width / 3; x < width / 2; ++x) left[static_cast<std::size_t>(x)] = 0;
+        const int x0 = rng.uniform(0, std::max(1, width / 4)), x1 = width - rng.uniform(0, std::max(1, width / 4));
+        std::vector<int> bounds(static_cast<std::size_t>(strips) + 1);
+        for (int k = 0; k <= strips; ++k) bounds[static_cast<std::size_t>(k)] = k * width / strips;
+        const std::uint8_t* right = padded.data() + pad;
+        std::vector<int> strip_fast(static_cast<std::size_t>(strips * offsets), -7), row_fast(static_cast<std::size_t>(offsets), 0);
+        simd::accumulateMatchesStrips(left.data(), right, x0, x1, offsets, 12, bounds.data(), strips, strip_fast.data(),
+                                      row_fast.data());
+        std::vector<int> strip_ref(static_cast<std::size_t>(strips * offsets), 0), row_ref(static_cast<std::size_t>(offsets), 0);
+        for (int k = 0; k < strips; ++k) {
+          const int a = std::max(x0, bounds[static_cast<std::size_t>(k)]);
+          const int b = std::min(x1, bounds[static_cast<std::size_t>(k) + 1]);
+          int* c = strip_ref.data() + static_cast<std::size_t>(k * offsets);
+          if (a < b) simd::accumulateMatches(left.data(), nullptr, right, a, b, offsets, 12, c);
+          for (int d = 0; d < offsets; ++d) row_ref[static_cast<std::size_t>(d)] += c[d];
+        }
+        ASSERT_EQ(strip_fast, strip_ref) << "width " << width << ", offsets " << offsets << ", strips " << strips;
+        ASSERT_EQ(row_fast, row_ref) << "width " << width << ", offsets " << offsets << ", strips " << strips;
+      }
+    }
+  }
+}
+
 TEST(FastObstacles, AddBytesToBytesMatchesTheScalarSumModulo256) {
   cv::RNG rng(37);
   for (const int n : {0, 1, 31, 32, 33, 64, 100, 1242}) {
