@@ -165,6 +165,45 @@ void ObstacleExtractor::matchRow(const std::uint8_t* l, const std::uint8_t* r, i
   }
 }
 
+void ObstacleExtractor::matchRows(const cv::Mat& remaining, const cv::Mat& right, int y0, int y1, int x0, int x1,
+                                  int d0, int d1, int half, std::uint8_t* out) {
+  if (y1 <= y0) return;
+  if (fast_) {
+    simd::windowMatchRows(remaining.ptr<std::uint8_t>(y0), remaining.step[0], right.ptr<std::uint8_t>(y0),
+                          right.step[0], cols_, y1 - y0, x0, x1, d0, d1, params_.grey_tolerance, half,
+                          match_scratch_.data(), out + static_cast<std::size_t>(y0) * static_cast<std::size_t>(cols_),
+                          static_cast<std::size_t>(cols_));
+    return;
+  }
+  for (int y = y0; y < y1; ++y)
+    matchRow(remaining.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x0, x1, d0, d1, half,
+             out + static_cast<std::size_t>(y) * static_cast<std::size_t>(cols_));
+}
+
+void ObstacleExtractor::fillMaskRows(RowMasks& masks, const cv::Mat& remaining, const cv::Mat& right, int y0, int y1,
+                                     int x0, int x1) {
+  constexpr int kChunk = 64;  // fillMaskRow's
+  int a = x0, b = x1;
+  if (b - a < kChunk) {
+    a = std::max(0, std::min(a, (a + b - kChunk) / 2));
+    b = std::min(cols_, std::max(b, a + kChunk));
+  }
+  for (int y = y0; y <= y1;) {
+    if (masks.hi[static_cast<std::size_t>(y)] > masks.lo[static_cast<std::size_t>(y)]) {
+      ++y;
+      continue;
+    }
+    int e = y + 1;
+    while (e <= y1 && masks.hi[static_cast<std::size_t>(e)] <= masks.lo[static_cast<std::size_t>(e)]) ++e;
+    matchRows(remaining, right, y, e, a, b, masks.d0, masks.d1, params_.match_half_window_px, masks.bits.data());
+    for (int k = y; k < e; ++k) {
+      masks.lo[static_cast<std::size_t>(k)] = a;
+      masks.hi[static_cast<std::size_t>(k)] = b;
+    }
+    y = e;
+  }
+}
+
 int ObstacleExtractor::ownOffset(const cv::Mat& remaining, const cv::Mat& right, const cv::Rect& box, int best) {
   // d* is the peak of whole rows, which everything on them shares; the cluster found there
   // matches at d* within the offset tolerance, and its own pixels may match best at a
@@ -455,6 +494,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   prepareContactRows(ground, rows, offsets);
   match_scratch_.resize(static_cast<std::size_t>(simd::windowMatchScratchSize(cols, std::max(half, params_.share_half_window_px))));
   sweep_row_.resize(static_cast<std::size_t>(cols));
+  if (fast_) sweep_rows_.resize(static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols));
   offset_runs_.reserve(static_cast<std::size_t>(cols));  // a box sweep has at most a run per column
   col_count_.resize(static_cast<std::size_t>(cols));
   col_count_bytes_.resize(static_cast<std::size_t>(cols));
@@ -543,6 +583,13 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         xa = xb;
       }
     }
+    // Fast path: each run's matches over all the box's rows in one kernel call (a row's
+    // matches depend on that row only, and it is cleared only after they are taken).
+    if (per_column && fast_)
+      for (const OffsetRun& run : offset_runs_)
+        matchRows(remaining, right, box.y, box.y + box.height, run.x0,
+                  std::min(cols, std::max(run.x1, run.x0 + simd::kLanes)), run.d - run_slack, run.d + run_slack,
+                  run_half, sweep_rows_.data());
     for (int y = box.y; y < box.y + box.height; ++y) {
       std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
       const std::uint8_t* r = right.ptr<std::uint8_t>(y);
@@ -550,6 +597,8 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       const std::uint8_t* mk = sweep_row_.data();
       if (!per_column) {
         mk = maskRow(candidate_masks_, remaining, right, y, box.x, bx1);
+      } else if (fast_) {
+        mk = sweep_rows_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(cols);
       } else {
         for (const OffsetRun& run : offset_runs_) {
           // At least a vector wide: columns to the right of the run belong to runs not
@@ -975,6 +1024,8 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           }
           int y = ya;
           if (n == kBlock && std::endian::native == std::endian::little) {
+            fillMaskRows(growth_masks_, remaining, right, ya, common, std::min(block_x0, both_lo),
+                         std::max(block_x0 + kBlock, both_hi));
             // Byte counters of at most 255 rows, then added to the columns' totals.
             while (y <= common) {
               const int y_end = std::min(common, y + 254);

@@ -274,6 +274,12 @@ class ObstacleExtractor {
   const std::uint8_t* fillMaskRow(RowMasks& masks, const cv::Mat& remaining, const cv::Mat& right, int y, int x0,
                                   int x1);
   void matchRow(const std::uint8_t* l, const std::uint8_t* r, int x0, int x1, int d0, int d1, std::uint8_t* out);
+  // matchRow on rows y0 .. y1 - 1 of `remaining` and `right`, row y into out + y * cols_.
+  void matchRows(const cv::Mat& remaining, const cv::Mat& right, int y0, int y1, int x0, int x1, int d0, int d1,
+                 int half, std::uint8_t* out);
+  // Rows y0 .. y1 of `masks` whose span is empty get what a first request [x0, x1) of each
+  // would (fillMaskRow's chunk), in one kernel call per run of such rows.
+  void fillMaskRows(RowMasks& masks, const cv::Mat& remaining, const cv::Mat& right, int y0, int y1, int x0, int x1);
   void matchRow(const std::uint8_t* l, const std::uint8_t* r, int x0, int x1, int d0, int d1, int half,
                 std::uint8_t* out);
 
@@ -308,6 +314,7 @@ class ObstacleExtractor {
   RowMasks growth_masks_;            // matches at the offset a wall is grown over
   std::vector<std::uint8_t> match_scratch_;
   std::vector<std::uint8_t> sweep_row_;
+  std::vector<std::uint8_t> sweep_rows_;  // fast path: a box's per-column matches, rows x cols
   std::vector<std::uint16_t> col_count_;  // per column: matches (at most the row count, < 2^16)
   std::vector<std::uint8_t> col_count_bytes_;  // ... of up to 255 rows at a time (fast path)
   cv::Mat right_padded_;                  // right features with the correlation kernel's zeros in front

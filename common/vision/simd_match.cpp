@@ -519,6 +519,17 @@ template <int H>
   }
 }
 
+[[gnu::always_inline]] inline void windowMatchRowsImpl(const std::uint8_t* left, std::size_t left_step,
+                                                       const std::uint8_t* right, std::size_t right_step, int width,
+                                                       int rows, int x0, int x1, int d0, int d1, int tol, int half,
+                                                       std::uint8_t* scratch, std::uint8_t* out, std::size_t out_step) {
+  for (int i = 0; i < rows; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    windowMatchImpl(left + k * left_step, right + k * right_step, width, x0, x1, d0, d1, tol, half, scratch,
+                    out + k * out_step);
+  }
+}
+
 [[gnu::always_inline]] inline void rowExcessImpl(const int* counts, int median, int min_excess, int row,
                                                  const int* last_row, int n, int* excess, int* sum) {
   const I32x8 vmed = I32x8{} + median;
@@ -902,6 +913,11 @@ template <class VFlags, class SFlag>
                                              std::uint8_t* out) {
   windowMatchImpl(left, right, width, x0, x1, d0, d1, tol, half, q, out);
 }
+[[gnu::target("avx2")]] void windowMatchRowsAvx2(const std::uint8_t* left, std::size_t ls, const std::uint8_t* right,
+                                                 std::size_t rs, int width, int rows, int x0, int x1, int d0, int d1,
+                                                 int tol, int half, std::uint8_t* q, std::uint8_t* out, std::size_t os) {
+  windowMatchRowsImpl(left, ls, right, rs, width, rows, x0, x1, d0, d1, tol, half, q, out, os);
+}
 [[gnu::target("avx2")]] void rowExcessAvx2(const int* counts, int median, int min_excess, int row, const int* last_row,
                                            int n, int* excess, int* sum) {
   rowExcessImpl(counts, median, min_excess, row, last_row, n, excess, sum);
@@ -925,6 +941,12 @@ template <class VFlags, class SFlag>
 void windowMatchBaseline(const std::uint8_t* left, const std::uint8_t* right, int width, int x0, int x1, int d0,
                          int d1, int tol, int half, std::uint8_t* q, std::uint8_t* out) {
   windowMatchImpl(left, right, width, x0, x1, d0, d1, tol, half, q, out);
+}
+
+void windowMatchRowsBaseline(const std::uint8_t* left, std::size_t ls, const std::uint8_t* right, std::size_t rs,
+                             int width, int rows, int x0, int x1, int d0, int d1, int tol, int half, std::uint8_t* q,
+                             std::uint8_t* out, std::size_t os) {
+  windowMatchRowsImpl(left, ls, right, rs, width, rows, x0, x1, d0, d1, tol, half, q, out, os);
 }
 
 void addBytesBaseline(const std::uint8_t* bytes, std::uint16_t* sums, int n) { addBytesImpl(bytes, sums, n); }
@@ -1044,6 +1066,18 @@ void windowMatchRow(const std::uint8_t* left, const std::uint8_t* right, int wid
   if (useAvx2()) return windowMatchAvx2(left, right, width, x0, x1, d0, d1, grey_tolerance, half, scratch, out);
 #endif
   windowMatchBaseline(left, right, width, x0, x1, d0, d1, grey_tolerance, half, scratch, out);
+}
+
+void windowMatchRows(const std::uint8_t* left, std::size_t left_step, const std::uint8_t* right,
+                     std::size_t right_step, int width, int rows, int x0, int x1, int d0, int d1, int grey_tolerance,
+                     int half, std::uint8_t* scratch, std::uint8_t* out, std::size_t out_step) {
+#ifdef SG_SIMD_X86
+  if (useAvx2())
+    return windowMatchRowsAvx2(left, left_step, right, right_step, width, rows, x0, x1, d0, d1, grey_tolerance, half,
+                               scratch, out, out_step);
+#endif
+  windowMatchRowsBaseline(left, left_step, right, right_step, width, rows, x0, x1, d0, d1, grey_tolerance, half,
+                          scratch, out, out_step);
 }
 
 void addBytes(const std::uint8_t* bytes, std::uint16_t* sums, int n) {

@@ -7,6 +7,7 @@
 // types; on x86-64 an AVX2 build of each kernel is picked at run time when the
 // processor has it, otherwise the baseline (SSE2) build runs. The environment
 // variable SG_SIMD=baseline selects the baseline build on any processor.
+#include <cstddef>
 #include <cstdint>
 
 namespace sg::simd {
@@ -66,6 +67,11 @@ constexpr int kWindowGroup = 4;  // offsets matched together
 constexpr int windowMatchScratchSize(int span, int half) { return kWindowGroup * (span + 2 * half); }
 void windowMatchRow(const std::uint8_t* left, const std::uint8_t* right, int width, int x0, int x1, int d0, int d1,
                     int grey_tolerance, int half, std::uint8_t* scratch, std::uint8_t* out);
+// windowMatchRow on `rows` consecutive rows (row i at left + i * left_step, right + i *
+// right_step, out + i * out_step): one call's set-up for all of them.
+void windowMatchRows(const std::uint8_t* left, std::size_t left_step, const std::uint8_t* right,
+                     std::size_t right_step, int width, int rows, int x0, int x1, int d0, int d1, int grey_tolerance,
+                     int half, std::uint8_t* scratch, std::uint8_t* out, std::size_t out_step);
 
 // Where a predicate holds along a row: the first pixel, one past the last (both n when
 // nowhere) and how many.

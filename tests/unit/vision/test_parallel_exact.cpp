@@ -618,6 +618,17 @@ TEST(FastObstacles, WindowMatchRowMatchesTheReferenceForAnyOffsetsWindowAndSpan)
                              fast.data());
         windowMatchRowReference(left.data(), right.data(), width, x0, x1, d0, d1, tol, half, ref.data());
         ASSERT_EQ(fast, ref);  // columns outside [x0, x1) untouched by both
+        // The same row three times over, as consecutive rows of an image (one call for all).
+        const auto w = static_cast<std::size_t>(width);
+        std::vector<std::uint8_t> left3(3 * w), right3(3 * w), out3(3 * w, 0x77);
+        for (std::size_t i = 0; i < 3; ++i) {
+          std::copy(left.begin(), left.end(), left3.begin() + static_cast<std::ptrdiff_t>(i * w));
+          std::copy(right.begin(), right.end(), right3.begin() + static_cast<std::ptrdiff_t>(i * w));
+        }
+        simd::windowMatchRows(left3.data(), w, right3.data(), w, width, 3, x0, x1, d0, d1, tol, half, scratch.data(),
+                              out3.data(), w);
+        for (std::size_t i = 0; i < 3; ++i)
+          ASSERT_TRUE(std::equal(ref.begin(), ref.end(), out3.begin() + static_cast<std::ptrdiff_t>(i * w))) << "row " << i;
       }
     }
   }
