@@ -58,46 +58,23 @@ typedef std::int32_t I32x8 __attribute__((vector_size(32)));
   std::memcpy(counts, &c, sizeof(c));
 }
 
-// Adds the byte lanes of `acc` to counts[first_lane_offset - j] for lane j (offsets
-// below `offsets` only) and clears them. Where some of the 32 offsets do not exist, lanes
-// go through memory one by one: indexing a vector register by a variable would keep the
-// accumulators out of registers.
-[[gnu::always_inline]] inline void flushLanes(U8x32& acc, int first_lane_offset, int offsets, int* counts) {
-  static_assert(kLanes == 32);
-  if (first_lane_offset - (kLanes - 1) >= 0 && first_lane_offset < offsets) {
-    // All 32 offsets exist: the lanes reversed (lane k then holds offset first - 31 + k),
-    // widened to 32 bits eight at a time and added.
-    const U8x32 r = __builtin_shufflevector(acc, acc, 31, 30, 29, 28, 27, 26, 25, 24, 23, 22, 21, 20, 19, 18, 17, 16,
-                                            15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
-    int* c = counts + first_lane_offset - (kLanes - 1);
-    addWidened(__builtin_shufflevector(r, r, 0, 1, 2, 3, 4, 5, 6, 7), c);
-    addWidened(__builtin_shufflevector(r, r, 8, 9, 10, 11, 12, 13, 14, 15), c + 8);
-    addWidened(__builtin_shufflevector(r, r, 16, 17, 18, 19, 20, 21, 22, 23), c + 16);
-    addWidened(__builtin_shufflevector(r, r, 24, 25, 26, 27, 28, 29, 30, 31), c + 24);
-    acc = U8x32{};
-    return;
-  }
-  std::uint8_t lanes[kLanes];
-  std::memcpy(lanes, &acc, sizeof(lanes));
-  for (int j = 0; j < kLanes; ++j) {
-    const int d = first_lane_offset - j;
-    if (d >= 0 && d < offsets) counts[d] += lanes[j];
-  }
-  acc = U8x32{};
-}
-
 // counts[0..7] = the eight bytes of `part`, widened.
 [[gnu::always_inline]] inline void storeWidened(U8x8 part, int* counts) {
   const I32x8 c = __builtin_convertvector(part, I32x8);
   std::memcpy(counts, &c, sizeof(c));
 }
 
-// flushLanes into two count arrays: `strip` gets the lanes (stored when `store`, else added)
-// and `counts` gets them added.
+// Adds the byte lanes of `acc` to counts[first_lane_offset - j] for lane j (offsets
+// below `offsets` only) and clears them; with `strip` (not null), also stores them there
+// when `store`, else adds them. Where some of the 32 offsets do not exist, lanes go through
+// memory one by one: indexing a vector register by a variable would keep the accumulators
+// out of registers.
 [[gnu::always_inline]] inline void flushLanesTwice(U8x32& acc, int first_lane_offset, int offsets, int* strip,
                                                    bool store, int* counts) {
   static_assert(kLanes == 32);
   if (first_lane_offset - (kLanes - 1) >= 0 && first_lane_offset < offsets) {
+    // All 32 offsets exist: the lanes reversed (lane k then holds offset first - 31 + k),
+    // widened to 32 bits eight at a time.
     const U8x32 r = __builtin_shufflevector(acc, acc, 31, 30, 29, 28, 27, 26, 25, 24, 23, 22, 21, 20, 19, 18, 17, 16,
                                             15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
     const int first = first_lane_offset - (kLanes - 1);
@@ -106,8 +83,8 @@ typedef std::int32_t I32x8 __attribute__((vector_size(32)));
                            __builtin_shufflevector(r, r, 16, 17, 18, 19, 20, 21, 22, 23),
                            __builtin_shufflevector(r, r, 24, 25, 26, 27, 28, 29, 30, 31)};
     for (int p = 0; p < 4; ++p) {
-      if (store) storeWidened(parts[p], strip + first + 8 * p);
-      else addWidened(parts[p], strip + first + 8 * p);
+      if (strip != nullptr && store) storeWidened(parts[p], strip + first + 8 * p);
+      else if (strip != nullptr) addWidened(parts[p], strip + first + 8 * p);
       addWidened(parts[p], counts + first + 8 * p);
     }
     acc = U8x32{};
@@ -118,10 +95,14 @@ typedef std::int32_t I32x8 __attribute__((vector_size(32)));
   for (int j = 0; j < kLanes; ++j) {
     const int d = first_lane_offset - j;
     if (d < 0 || d >= offsets) continue;
-    strip[d] = store ? lanes[j] : strip[d] + lanes[j];
+    if (strip != nullptr) strip[d] = store ? lanes[j] : strip[d] + lanes[j];
     counts[d] += lanes[j];
   }
   acc = U8x32{};
+}
+
+[[gnu::always_inline]] inline void flushLanes(U8x32& acc, int first_lane_offset, int offsets, int* counts) {
+  flushLanesTwice(acc, first_lane_offset, offsets, nullptr, false, counts);
 }
 
 // b matches a when b lies in [lo, hi] = [max(a - tol, 1), min(a + tol, 255)]:
@@ -183,6 +164,22 @@ constexpr int kMaxGather = 255;  // the most a byte lane can count
   return n;
 }
 
+// The n gathered feature pixels idx[0..n) matched against the right row at every offset:
+// lane j of acc[i] counts down the matches at offset dv - 1 - (kLanes * i + j).
+[[gnu::always_inline]] inline void matchGathered(const std::uint8_t* left, const std::uint8_t* right, const int* idx,
+                                                 int n, int tol, int dv, int nv, U8x32* acc) {
+  for (int k = 0; k < n; ++k) {
+    const int xi = idx[k];
+    const int a = left[xi];
+    const int lo = std::max(a - tol, 1);
+    const int hi = std::min(a + tol, 255);
+    const U8x32 vlo = splatFromTable(lo);
+    const U8x32 vw = splatFromTable(hi - lo);
+    const std::uint8_t* base = right + xi - (dv - 1);
+    for (int i = 0; i < nv; ++i) acc[i] -= matchMask(load(base + kLanes * i), vlo, vw);
+  }
+}
+
 // Lane j of vector i holds the count of offset d = dv - 1 - (kLanes * i + j).
 template <int NV>
 [[gnu::always_inline]] inline void accumulateImpl(const std::uint8_t* left, const std::uint8_t* skip,
@@ -203,16 +200,7 @@ template <int NV>
   while (x < x1) {
     // A literal nullptr lets the inlined gather drop the skip test.
     const int n = skip == nullptr ? gatherFeatures(left, nullptr, x, x1, idx) : gatherFeatures(left, skip, x, x1, idx);
-    for (int k = 0; k < n; ++k) {
-      const int xi = idx[k];
-      const int a = left[xi];
-      const int lo = std::max(a - tol, 1);
-      const int hi = std::min(a + tol, 255);
-      const U8x32 vlo = splatFromTable(lo);
-      const U8x32 vw = splatFromTable(hi - lo);
-      const std::uint8_t* base = right + xi - (dv - 1);
-      for (int i = 0; i < nv; ++i) acc[i] -= matchMask(load(base + kLanes * i), vlo, vw);
-    }
+    matchGathered(left, right, idx, n, tol, dv, nv, acc);
     if (n > 0) flush();
   }
 }
@@ -241,16 +229,7 @@ template <int NV>
     const int xb = std::min(x1, bounds[k + 1]);
     while (x < xb) {
       const int n = gatherFeatures(left, nullptr, x, xb, idx);
-      for (int j = 0; j < n; ++j) {
-        const int xi = idx[j];
-        const int a = left[xi];
-        const int lo = std::max(a - tol, 1);
-        const int hi = std::min(a + tol, 255);
-        const U8x32 vlo = splatFromTable(lo);
-        const U8x32 vw = splatFromTable(hi - lo);
-        const std::uint8_t* base = right + xi - (dv - 1);
-        for (int i = 0; i < nv; ++i) acc[i] -= matchMask(load(base + kLanes * i), vlo, vw);
-      }
+      matchGathered(left, right, idx, n, tol, dv, nv, acc);
       if (n > 0) flush();
     }
     if (first) std::fill(strip, strip + offsets, 0);
