@@ -180,14 +180,17 @@ void ObstacleExtractor::matchRows(const cv::Mat& remaining, const cv::Mat& right
              out + static_cast<std::size_t>(y) * static_cast<std::size_t>(cols_));
 }
 
+void ObstacleExtractor::firstMaskSpan(int& a, int& b) const {
+  if (b - a >= kMaskChunk) return;
+  // A narrow first request (cells, a block of columns): a chunk around it, vector-wide.
+  a = std::max(0, std::min(a, (a + b - kMaskChunk) / 2));
+  b = std::min(cols_, std::max(b, a + kMaskChunk));
+}
+
 void ObstacleExtractor::fillMaskRows(RowMasks& masks, const cv::Mat& remaining, const cv::Mat& right, int y0, int y1,
                                      int x0, int x1) {
-  constexpr int kChunk = 64;  // fillMaskRow's
   int a = x0, b = x1;
-  if (b - a < kChunk) {
-    a = std::max(0, std::min(a, (a + b - kChunk) / 2));
-    b = std::min(cols_, std::max(b, a + kChunk));
-  }
+  firstMaskSpan(a, b);
   for (int y = y0; y <= y1;) {
     if (masks.hi[static_cast<std::size_t>(y)] > masks.lo[static_cast<std::size_t>(y)]) {
       ++y;
@@ -245,14 +248,12 @@ const std::uint8_t* ObstacleExtractor::fillMaskRow(RowMasks& masks, const cv::Ma
   int& hi = masks.hi[static_cast<std::size_t>(y)];
   // Grow the valid span to cover [x0, x1), by at least a chunk on each side that grows
   // (columns are often asked for one by one while a cluster's sides are searched).
-  constexpr int kChunk = 64;
   int a = x0, b = x1;
   if (hi > lo) {
-    a = x0 < lo ? std::max(0, std::min(x0, lo - kChunk)) : lo;
-    b = x1 > hi ? std::min(cols_, std::max(x1, hi + kChunk)) : hi;
-  } else if (b - a < kChunk) {  // narrow first requests (cells): a chunk around them, vector-wide
-    a = std::max(0, std::min(a, (a + b - kChunk) / 2));
-    b = std::min(cols_, std::max(b, a + kChunk));
+    a = x0 < lo ? std::max(0, std::min(x0, lo - kMaskChunk)) : lo;
+    b = x1 > hi ? std::min(cols_, std::max(x1, hi + kMaskChunk)) : hi;
+  } else {
+    firstMaskSpan(a, b);
   }
   // The columns already valid are recomputed with the rest: the result does not depend on the span.
   matchRow(remaining.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), a, b, masks.d0, masks.d1, row);
@@ -797,6 +798,10 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       const int gh = (limit + 1 + cs - 1) / cs;
       for (const int k : touched_cells_) cell_[static_cast<std::size_t>(k)] = Cell{};
       touched_cells_.clear();
+      // A cell is active when enough of its pixels match, and most of its features.
+      auto activeCell = [&](int matched, int present) {
+        return matched >= params_.min_cell_matches && matched >= params_.min_match_fraction * present;
+      };
       auto cellAt = [&](int i, int j) -> Cell& {
         const int k = j * gw + i;
         Cell& c = cell_[static_cast<std::size_t>(k)];
@@ -851,9 +856,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           }
         }
         c.matched = matched;
-        c.state = matched >= params_.min_cell_matches && matched >= params_.min_match_fraction * present
-                      ? kCellActive
-                      : kCellInactive;
+        c.state = activeCell(matched, present) ? kCellActive : kCellInactive;
         return c;
       };
       // The cluster: of the connected sets of active cells (within cell_reach cells of each
@@ -925,7 +928,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
             const int x = i * cs;
             const int matched = hp[x] + hp[x + 1] + hp[x + 2] + hp[x + 3];
             const int present = fp[x] + fp[x + 1] + fp[x + 2] + fp[x + 3];
-            if (matched >= params_.min_cell_matches && matched >= params_.min_match_fraction * present) {
+            if (activeCell(matched, present)) {
               cellAt(i, j);  // active: its box too
               continue;
             }
@@ -1024,8 +1027,8 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           }
           int y = ya;
           if (n == kBlock && std::endian::native == std::endian::little) {
-            fillMaskRows(growth_masks_, remaining, right, ya, common, std::min(block_x0, both_lo),
-                         std::max(block_x0 + kBlock, both_hi));
+            const int req_lo = std::min(block_x0, both_lo), req_hi = std::max(block_x0 + kBlock, both_hi);
+            fillMaskRows(growth_masks_, remaining, right, ya, common, req_lo, req_hi);
             // Byte counters of at most 255 rows, then added to the columns' totals.
             while (y <= common) {
               const int y_end = std::min(common, y + 254);
@@ -1033,11 +1036,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
               for (; y <= y_end; ++y) {
                 std::uint64_t lw, mw;
                 std::memcpy(&lw, remaining.ptr<std::uint8_t>(y) + block_x0, sizeof(lw));
-                std::memcpy(&mw,
-                            maskRow(growth_masks_, remaining, right, y, std::min(block_x0, both_lo),
-                                    std::max(block_x0 + kBlock, both_hi)) +
-                                block_x0,
-                            sizeof(mw));
+                std::memcpy(&mw, maskRow(growth_masks_, remaining, right, y, req_lo, req_hi) + block_x0, sizeof(mw));
                 const std::uint64_t feature = nonZeroBytes(lw);
                 present += feature;
                 matched += mw & feature;  // mask bytes are 0 or 1

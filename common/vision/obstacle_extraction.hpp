@@ -277,6 +277,9 @@ class ObstacleExtractor {
   // matchRow on rows y0 .. y1 - 1 of `remaining` and `right`, row y into out + y * cols_.
   void matchRows(const cv::Mat& remaining, const cv::Mat& right, int y0, int y1, int x0, int x1, int d0, int d1,
                  int half, std::uint8_t* out);
+  // The span a row's first request [a, b) computes: at least kMaskChunk columns around it.
+  static constexpr int kMaskChunk = 64;
+  void firstMaskSpan(int& a, int& b) const;
   // Rows y0 .. y1 of `masks` whose span is empty get what a first request [x0, x1) of each
   // would (fillMaskRow's chunk), in one kernel call per run of such rows.
   void fillMaskRows(RowMasks& masks, const cv::Mat& remaining, const cv::Mat& right, int y0, int y1, int x0, int x1);
