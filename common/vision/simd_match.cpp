@@ -122,25 +122,52 @@ typedef std::int32_t I32x8 __attribute__((vector_size(32)));
   width = hi - lo;
 }
 
-// Calls vec(x) for whole vectors x = a, a + kLanes, ... inside [a, b), then for the rest either
-// vec(b - kLanes), a last vector overlapping the one before (for callers whose results do not
+// Calls vec(x) for whole vectors x = a, a + Step, ... inside [a, b), then for the rest either
+// vec(b - Step), a last vector overlapping the one before (for callers whose results do not
 // change when a pixel is done twice), or, when [a, b) is shorter than a vector, scalar(x) for
 // each pixel left.
-template <class Vector, class Scalar>
+template <int Step = kLanes, class Vector, class Scalar>
 [[gnu::always_inline]] inline void forVectors(int a, int b, Vector vec, Scalar scalar) {
   int x = a;
-  for (; x + kLanes <= b; x += kLanes) vec(x);
-  if (x < b && b - kLanes >= a) {
-    vec(b - kLanes);
+  for (; x + Step <= b; x += Step) vec(x);
+  if (x < b && b - Step >= a) {
+    vec(b - Step);
     x = b;
   }
   for (; x < b; ++x) scalar(x);
 }
 
+// Bit j set where byte j of w is non-zero: the high bit of each byte marks a non-zero
+// byte (its low seven bits carried into it, or its own), and the multiplication moves
+// the eight marks, one per byte, into the top byte (the partial products never overlap).
+[[gnu::always_inline]] constexpr unsigned nonZeroBits(std::uint64_t w) {
+  constexpr std::uint64_t kLow7 = 0x7f7f7f7f7f7f7f7full;
+  const std::uint64_t high = (((w & kLow7) + kLow7) | w) & ~kLow7;
+  return static_cast<unsigned>(((high >> 7) * 0x0102040810204080ull) >> 56);
+}
+static_assert(nonZeroBits(0) == 0 && nonZeroBits(0x0100ff0000800001ull) == 0b10100101u);
+
+// For each 8-bit mask, the positions of its set bits in increasing order (the entries
+// past the last set bit are 0), as 32-bit integers: one vector load each.
+struct CompressTable {
+  alignas(32) std::int32_t positions[256][8];
+};
+constexpr CompressTable makeCompressTable() {
+  CompressTable t{};
+  for (unsigned m = 0; m < 256; ++m) {
+    int n = 0;
+    for (unsigned j = 0; j < 8; ++j)
+      if (m & (1u << j)) t.positions[m][n++] = static_cast<std::int32_t>(j);
+  }
+  return t;
+}
+constexpr CompressTable kCompress = makeCompressTable();
+
 // Gathers into idx the x in [x, x1) with left[x] != 0 (and skip[x] == 0 when skip
 // is not null), branch-free, until x1 or until idx holds kMaxGather - 7 or more;
-// returns how many and advances x. Eight pixels whose left bytes are all zero
-// (one 64-bit test) are stepped over at once.
+// returns how many and advances x. Eight pixels at a time: the mask of those to keep
+// selects their positions from kCompress, stored as eight indices of which the first
+// popcount(mask) count (idx has room for the rest).
 constexpr int kMaxGather = 255;  // the most a byte lane can count
 [[gnu::always_inline]] inline int gatherFeatures(const std::uint8_t* left, const std::uint8_t* skip, int& x, int x1,
                                                  int* idx) {
@@ -148,11 +175,26 @@ constexpr int kMaxGather = 255;  // the most a byte lane can count
   while (x + 8 <= x1 && n <= kMaxGather - 8) {
     std::uint64_t word;
     std::memcpy(&word, left + x, sizeof(word));
-    if (word != 0) {
+    if constexpr (std::endian::native != std::endian::little) {  // byte j is not bits 8j .. 8j + 7
       for (int j = 0; j < 8; ++j) {
         idx[n] = x + j;
         n += skip == nullptr ? left[x + j] != 0 : (left[x + j] != 0) & (skip[x + j] == 0);
       }
+      x += 8;
+      continue;
+    }
+    unsigned keep = nonZeroBits(word);
+    if (skip != nullptr) {
+      std::uint64_t skipped;
+      std::memcpy(&skipped, skip + x, sizeof(skipped));
+      keep &= ~nonZeroBits(skipped);
+    }
+    if (keep != 0) {
+      I32x8 xs;
+      std::memcpy(&xs, kCompress.positions[keep], sizeof(xs));
+      xs += x;
+      std::memcpy(idx + n, &xs, sizeof(xs));
+      n += std::popcount(keep);
     }
     x += 8;
   }
@@ -317,19 +359,20 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
     std::memcpy(&v, row + 2 * x, sizeof(v));
     return v;
   };
+  // Each pass below goes over the row in vectors, the last one overlapping the one before it
+  // where the row is not a whole number of vectors (the same values written twice).
   constexpr int kStep = 16;
-  int x = 0;
-  for (; x + kStep <= w; x += kStep) {
+  auto sumsAt = [&](int x) __attribute__((always_inline)) {
     const I16x16 a = widen(pm + x), b = widen(p0 + x), c = widen(pp + x);
     const I16x16 v = a + b + b + c;
     const I16x16 dv = c - a;
     std::memcpy(vsum + 2 * x, &v, sizeof(v));
     std::memcpy(vdif + 2 * x, &dv, sizeof(dv));
-  }
-  for (; x < w; ++x) {
+  };
+  forVectors<kStep>(0, w, sumsAt, [&](int x) __attribute__((always_inline)) {
     put(vsum, x, pm[x] + 2 * p0[x] + pp[x]);
     put(vdif, x, pp[x] - pm[x]);
-  }
+  });
   if (w > 0) {
     put(vsum, -1, get(vsum, 0));
     put(vdif, -1, get(vdif, 0));
@@ -338,8 +381,7 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
   }
   // |gx| + |gy| <= 8 * 255 fits 16 bits.
   const I16x16 vthr = I16x16{} + static_cast<std::int16_t>(std::min(thr, 32767));
-  x = 0;
-  for (; x + kStep <= w; x += kStep) {
+  auto edgesAt = [&](int x) __attribute__((always_inline)) {
     const I16x16 gx = loadSums(vsum, x + 1) - loadSums(vsum, x - 1);
     const I16x16 d0 = loadSums(vdif, x);
     const I16x16 gy = loadSums(vdif, x - 1) + d0 + d0 + loadSums(vdif, x + 1);
@@ -347,28 +389,27 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
     const I16x16 ay = gy < 0 ? -gy : gy;
     const auto edge = __builtin_convertvector((ax + ay) >= vthr, U8x16);  // -1 -> 0xFF
     std::memcpy(e + x, &edge, sizeof(edge));
-  }
-  for (; x < w; ++x) {
+  };
+  forVectors<kStep>(0, w, edgesAt, [&](int x) __attribute__((always_inline)) {
     const int gx = get(vsum, x + 1) - get(vsum, x - 1);
     const int gy = get(vdif, x - 1) + 2 * get(vdif, x) + get(vdif, x + 1);
     e[x] = std::abs(gx) + std::abs(gy) >= thr ? 0xFF : 0;
-  }
+  });
   // Dilation and masked copy.
   const U8x32 one = splat(1);
-  x = 0;
-  for (; x + kLanes <= w; x += kLanes) {
+  auto featuresAt = [&](int x) __attribute__((always_inline)) {
     U8x32 on = load(e + x - r);
     for (int k = -r + 1; k <= r; ++k) on |= load(e + x + k);
     U8x32 grey = load(p0 + x);
     grey = grey < one ? one : grey;
     const U8x32 v = grey & on;
     std::memcpy(out + x, &v, sizeof(v));
-  }
-  for (; x < w; ++x) {
+  };
+  forVectors(0, w, featuresAt, [&](int x) __attribute__((always_inline)) {
     int on = 0;
     for (int k = -r; k <= r; ++k) on |= e[x + k];
     out[x] = on ? std::max<std::uint8_t>(p0[x], 1) : std::uint8_t{0};
-  }
+  });
 }
 
 [[gnu::always_inline]] inline void markImpl(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1,
