@@ -30,6 +30,7 @@
 #include "io/frame_source.hpp"
 #include "pipeline_bench.hpp"
 #include "vision/detector.hpp"
+#include "vision/simd_match.hpp"
 
 namespace sg::cli {
 
@@ -63,6 +64,25 @@ Stats stats(std::vector<double> v) {
 }
 
 nlohmann::json toJson(const Stats& s) { return {{"median", s.median}, {"min", s.min}}; }
+
+// The processor as the kernel names it (Linux: /proc/cpuinfo's model name, family and model),
+// "unknown" elsewhere: timings and the StereoBM ratio differ between processor generations.
+std::string processorName() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line, name, family, model;
+  auto value = [](const std::string& l) {
+    const auto colon = l.find(':');
+    return colon == std::string::npos ? std::string() : l.substr(l.find_first_not_of(" \t", colon + 1));
+  };
+  while (std::getline(in, line) && line.find_first_not_of(" \t") != std::string::npos) {
+    if (line.rfind("model name", 0) == 0) name = value(line);
+    else if (line.rfind("cpu family", 0) == 0) family = value(line);
+    else if (line.rfind("model", 0) == 0 && line.find(':') != std::string::npos) model = value(line);
+  }
+  if (name.empty()) return "unknown";
+  if (!family.empty() && !model.empty()) name += " (family " + family + ", model " + model + ")";
+  return name;
+}
 
 // "<prefix>X ms, detection Y ms (frame i of N)\n" for the frame whose segmentation took longest:
 // the medians say what a frame usually costs, this what the worst one did.
@@ -186,6 +206,7 @@ void runBench(const BenchOptions& opt) {
   const int offsets = params.segmenter.correlation.offsets;
   const int max_obstacles = params.segmenter.obstacles.max_obstacles;
 
+  const std::string processor = processorName();
   std::cout << "stereoguard bench\n"
             << "  source      " << source->describe() << "\n"
             << "  frames      " << pairs.size() << " (+1 warm-up run, not counted), " << opt.rounds
@@ -194,7 +215,8 @@ void runBench(const BenchOptions& opt) {
             << "  offsets     " << offsets << "\n"
             << "  threads     " << threads << " (TBB row bands" << (params.segmenter.parallel ? "" : ", disabled")
             << ")\n"
-            << "  hardware    " << tbb::info::default_concurrency() << " hardware threads\n"
+            << "  hardware    " << tbb::info::default_concurrency() << " hardware threads, " << processor
+            << ", " << simd::kernelName() << " kernels\n"
             << "  StereoBM    128 disparities, block 15, cv::setNumThreads(1)\n"
             << "  clock       steady_clock; figures are per frame (left + right), milliseconds\n"
             << "  detection   segmentation + human localization (no tracking)\n" << std::flush;
@@ -290,6 +312,8 @@ void runBench(const BenchOptions& opt) {
     j["frames"] = pairs.size();
     j["rounds"] = opt.rounds;
     j["threads"] = threads;
+    j["processor"] = processor;
+    j["kernels"] = simd::kernelName();
     j["stages_ms"] = stages;
     j["segmentation_ms"] = toJson(seg);
     j["stereobm_ms"] = toJson(sbm);

@@ -229,6 +229,11 @@ TEST_F(CliTest, BenchReportsTheDetectionAndTheTargetsCount) {
   EXPECT_NE(r.out.find("as the speed targets count it (up to 5 obstacles"), std::string::npos) << r.out;
   const nlohmann::json j = nlohmann::json::parse(slurp(path("bench.json")));
   EXPECT_EQ(j["rounds"].get<int>(), 2);
+  // The machine the figures belong to: the processor and the kernels that ran.
+  EXPECT_FALSE(j["processor"].get<std::string>().empty());
+  const std::string kernels = j["kernels"].get<std::string>();
+  EXPECT_TRUE(kernels == "avx2" || kernels == "baseline") << kernels;
+  EXPECT_NE(r.out.find(kernels + " kernels"), std::string::npos) << r.out;
   // Each frame's detection is its segmentation plus its localization: order statistics keep that.
   EXPECT_GE(j["detection_ms"]["median"].get<double>(), j["segmentation_ms"]["median"].get<double>());
   EXPECT_GT(j["localization_ms"]["min"].get<double>(), 0.0);
