@@ -108,38 +108,59 @@ struct PassFigures {
   long hog_calls = 0;
 };
 
-// Every frame through the detector's segmentation and localization (no tracking: the
-// frames of a source are measured one by one, each standing alone).
-PassFigures measurePass(const std::vector<StereoPair>& pairs, DetectorParams params) {
-  params.tracking = false;
-  Detector detector(params);
-  DetectionResult result;
-  PassFigures f;
-  detector.compute(pairs.front().left, pairs.front().right, pairs.front().rig, 0.0, result);  // warm-up
-  const long hog_before = detector.hogDetectCalls();
-  for (const StereoPair& pair : pairs) {
-    detector.reset();  // every frame stands alone (frames of a synthetic source are unrelated)
-    detector.compute(pair.left, pair.right, pair.rig, 0.0, result);
-    const auto& seg = result.segmentation.timing_ms;
-    for (const auto& [stage, ms] : seg) f.stage_ms[stage].push_back(ms);
-    f.segmentation_ms.push_back(seg.at("total"));
-    // Features, correlation, ground and removal (with the correlation after it): all
-    // of Section III but the obstacle loop.
-    double pre = 0.0;
-    for (const char* stage : {"features", "correlation", "ground", "removal"}) {
-      const auto it = seg.find(stage);
-      if (it != seg.end()) pre += it->second;
-    }
-    f.preprocessing_ms.push_back(pre);
-    const double localization = result.timing_ms.at("localization");
-    f.localization_ms.push_back(localization);
-    f.detection_ms.push_back(seg.at("total") + localization);
-    f.obstacles += result.segmentation.obstacles.size();
-    f.people += result.humans.size();
+// One frame through a detector's segmentation and localization, its figures appended to `f`.
+void measureFrame(Detector& detector, const StereoPair& pair, DetectionResult& result, PassFigures& f) {
+  detector.reset();  // every frame stands alone (frames of a synthetic source are unrelated)
+  detector.compute(pair.left, pair.right, pair.rig, 0.0, result);
+  const auto& seg = result.segmentation.timing_ms;
+  for (const auto& [stage, ms] : seg) f.stage_ms[stage].push_back(ms);
+  f.segmentation_ms.push_back(seg.at("total"));
+  // Features, correlation, ground and removal (with the correlation after it): all
+  // of Section III but the obstacle loop.
+  double pre = 0.0;
+  for (const char* stage : {"features", "correlation", "ground", "removal"}) {
+    const auto it = seg.find(stage);
+    if (it != seg.end()) pre += it->second;
   }
-  f.hog_calls = detector.hogDetectCalls() - hog_before;
-  return f;
+  f.preprocessing_ms.push_back(pre);
+  const double localization = result.timing_ms.at("localization");
+  f.localization_ms.push_back(localization);
+  f.detection_ms.push_back(seg.at("total") + localization);
+  f.obstacles += result.segmentation.obstacles.size();
+  f.people += result.humans.size();
 }
+
+DetectorParams untracked(DetectorParams params) {
+  params.tracking = false;
+  return params;
+}
+
+// A detector measured over the rounds (no tracking: the frames of a source are measured one
+// by one, each standing alone), warmed up once.
+struct MeasuredDetector {
+  MeasuredDetector(const DetectorParams& params, const StereoPair& warm_up) : detector(untracked(params)) {
+    detector.compute(warm_up.left, warm_up.right, warm_up.rig, 0.0, result);
+    hog_before = detector.hogDetectCalls();
+  }
+  Detector detector;
+  DetectionResult result;
+  long hog_before = 0;
+  std::vector<PassFigures> rounds;
+};
+
+// OpenCV StereoBM, 128 disparities, block 15, one thread (the caller sets the threads).
+struct MeasuredStereoBm {
+  explicit MeasuredStereoBm(const StereoPair& warm_up) : bm(cv::StereoBM::create(128, 15)) {
+    bm->compute(warm_up.left, warm_up.right, disparity);
+  }
+  double frameMs(const StereoPair& pair) {
+    const auto t0 = Clock::now();
+    bm->compute(pair.left, pair.right, disparity);
+    return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  }
+  cv::Ptr<cv::StereoBM> bm;
+  cv::Mat disparity;
+};
 
 // into[i] = min(into[i], other[i]) frame by frame.
 void keepMin(std::vector<double>& into, const std::vector<double>& other) {
@@ -162,23 +183,6 @@ PassFigures fastestOf(const std::vector<PassFigures>& rounds) {
     keepMin(f.detection_ms, o.detection_ms);
   }
   return f;
-}
-
-// OpenCV StereoBM, 128 disparities, block 15, one thread: milliseconds per frame.
-std::vector<double> measureStereoBm(const std::vector<StereoPair>& pairs) {
-  std::vector<double> ms;
-  const int previous_threads = cv::getNumThreads();
-  cv::setNumThreads(1);
-  cv::Ptr<cv::StereoBM> bm = cv::StereoBM::create(128, 15);
-  cv::Mat disparity;
-  bm->compute(pairs.front().left, pairs.front().right, disparity);  // warm-up
-  for (const StereoPair& pair : pairs) {
-    const auto t0 = Clock::now();
-    bm->compute(pair.left, pair.right, disparity);
-    ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-  }
-  cv::setNumThreads(previous_threads);
-  return ms;
 }
 
 // The speed targets count up to this many obstacles per frame.
@@ -225,18 +229,38 @@ void runBench(const BenchOptions& opt) {
   DetectorParams capped_params = params;
   capped_params.segmenter.obstacles.max_obstacles = kTargetObstacles;
   const bool measure_capped = max_obstacles > kTargetObstacles;
-  // Round by round, the three measurements alternate, so that a busy spell of the machine
-  // falls on all of them alike.
-  std::vector<PassFigures> default_rounds, capped_rounds;
+  // Frame by frame, the three measurements follow each other (the detector as configured, the
+  // detector as the targets count, StereoBM), so that a busy spell of the machine falls on
+  // all of them alike; the rounds repeat that over the frames.
+  MeasuredDetector as_configured(params, pairs.front());
+  std::optional<MeasuredDetector> as_targets;
+  if (measure_capped) as_targets.emplace(capped_params, pairs.front());
+  const int previous_cv_threads = cv::getNumThreads();
+  cv::setNumThreads(1);
+  MeasuredStereoBm stereobm(pairs.front());
   std::vector<std::vector<double>> stereobm_rounds;
   for (int r = 0; r < opt.rounds; ++r) {
-    default_rounds.push_back(measurePass(pairs, params));
-    if (measure_capped) capped_rounds.push_back(measurePass(pairs, capped_params));
-    stereobm_rounds.push_back(measureStereoBm(pairs));
+    as_configured.rounds.emplace_back();
+    if (as_targets) as_targets->rounds.emplace_back();
+    stereobm_rounds.emplace_back();
+    for (const StereoPair& pair : pairs) {
+      measureFrame(as_configured.detector, pair, as_configured.result, as_configured.rounds.back());
+      if (as_targets) measureFrame(as_targets->detector, pair, as_targets->result, as_targets->rounds.back());
+      stereobm_rounds.back().push_back(stereobm.frameMs(pair));
+    }
   }
-  const PassFigures f = fastestOf(default_rounds);
+  cv::setNumThreads(previous_cv_threads);
+  // HOG calls are counted over every round: per frame, per round.
+  auto hogCalls = [&](const MeasuredDetector& m) {
+    return (m.detector.hogDetectCalls() - m.hog_before) / std::max(1, opt.rounds);
+  };
+  PassFigures f = fastestOf(as_configured.rounds);
+  f.hog_calls = hogCalls(as_configured);
   std::optional<PassFigures> capped;
-  if (measure_capped) capped = fastestOf(capped_rounds);
+  if (as_targets) {
+    capped = fastestOf(as_targets->rounds);
+    capped->hog_calls = hogCalls(*as_targets);
+  }
   std::vector<double> stereobm_ms = stereobm_rounds.front();
   for (const auto& round : stereobm_rounds) keepMin(stereobm_ms, round);
 
