@@ -206,17 +206,40 @@ constexpr int kMaxGather = 255;  // the most a byte lane can count
   return n;
 }
 
+// matchMask's range of every grey value a for one tolerance, as broadcasts: lo = max(a - tol, 1)
+// and width = min(a + tol, 255) - lo, one cache line per grey value. Built once per thread
+// and tolerance.
+struct RangeSplats {
+  struct Entry {
+    std::uint8_t lo[kLanes];
+    std::uint8_t width[kLanes];
+  };
+  alignas(64) Entry of[256];
+  int tol = -1;
+};
+[[gnu::always_inline]] inline const RangeSplats& rangeSplats(int tol) {
+  static thread_local RangeSplats table;
+  if (table.tol != tol) {
+    for (int a = 0; a < 256; ++a) {
+      const int lo = std::max(a - tol, 1);
+      const int hi = std::min(a + tol, 255);
+      std::memset(table.of[a].lo, lo & 0xFF, kLanes);
+      std::memset(table.of[a].width, (hi - lo) & 0xFF, kLanes);
+    }
+    table.tol = tol;
+  }
+  return table;
+}
+
 // The n gathered feature pixels idx[0..n) matched against the right row at every offset:
 // lane j of acc[i] counts down the matches at offset dv - 1 - (kLanes * i + j).
 [[gnu::always_inline]] inline void matchGathered(const std::uint8_t* left, const std::uint8_t* right, const int* idx,
-                                                 int n, int tol, int dv, int nv, U8x32* acc) {
+                                                 int n, const RangeSplats& ranges, int dv, int nv, U8x32* acc) {
   for (int k = 0; k < n; ++k) {
     const int xi = idx[k];
-    const int a = left[xi];
-    const int lo = std::max(a - tol, 1);
-    const int hi = std::min(a + tol, 255);
-    const U8x32 vlo = splatFromTable(lo);
-    const U8x32 vw = splatFromTable(hi - lo);
+    const RangeSplats::Entry& range = ranges.of[left[xi]];
+    const U8x32 vlo = load(range.lo);
+    const U8x32 vw = load(range.width);
     const std::uint8_t* base = right + xi - (dv - 1);
     for (int i = 0; i < nv; ++i) acc[i] -= matchMask(load(base + kLanes * i), vlo, vw);
   }
@@ -238,11 +261,12 @@ template <int NV>
   // Feature pixels are gathered into chunks of at most 255, the most a byte lane
   // can count, then matched and flushed.
   int idx[kMaxGather];
+  const RangeSplats& ranges = rangeSplats(tol);
   int x = x0;
   while (x < x1) {
     // A literal nullptr lets the inlined gather drop the skip test.
     const int n = skip == nullptr ? gatherFeatures(left, nullptr, x, x1, idx) : gatherFeatures(left, skip, x, x1, idx);
-    matchGathered(left, right, idx, n, tol, dv, nv, acc);
+    matchGathered(left, right, idx, n, ranges, dv, nv, acc);
     if (n > 0) flush();
   }
 }
@@ -260,6 +284,7 @@ template <int NV>
   U8x32 acc[NV > 0 ? NV : kMaxVectors];
   for (int i = 0; i < nv; ++i) acc[i] = U8x32{};
   int idx[kMaxGather];
+  const RangeSplats& ranges = rangeSplats(tol);
   for (int k = 0; k < strips; ++k) {
     int* strip = strip_counts + static_cast<std::size_t>(k) * static_cast<std::size_t>(offsets);
     bool first = true;
@@ -271,7 +296,7 @@ template <int NV>
     const int xb = std::min(x1, bounds[k + 1]);
     while (x < xb) {
       const int n = gatherFeatures(left, nullptr, x, xb, idx);
-      matchGathered(left, right, idx, n, tol, dv, nv, acc);
+      matchGathered(left, right, idx, n, ranges, dv, nv, acc);
       if (n > 0) flush();
     }
     if (first) std::fill(strip, strip + offsets, 0);
