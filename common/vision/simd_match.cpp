@@ -6,6 +6,7 @@
 #include <cstring>
 #include <limits>
 #include <string_view>
+#include <utility>
 
 // The 32-byte vector helpers below are internal and always inlined: the note
 // about their calling convention without AVX does not apply.
@@ -50,18 +51,27 @@ constexpr SplatTable kSplats = makeSplatTable();
 typedef std::uint8_t U8x8 __attribute__((vector_size(8)));
 typedef std::int32_t I32x8 __attribute__((vector_size(32)));
 
-// counts[0..7] += the eight bytes of `part`, widened.
-[[gnu::always_inline]] inline void addWidened(U8x8 part, int* counts) {
+// counts[0..7] += part.
+[[gnu::always_inline]] inline void addWidened(I32x8 part, int* counts) {
   I32x8 c;
   std::memcpy(&c, counts, sizeof(c));
-  c += __builtin_convertvector(part, I32x8);
+  c += part;
   std::memcpy(counts, &c, sizeof(c));
 }
 
-// counts[0..7] = the eight bytes of `part`, widened.
-[[gnu::always_inline]] inline void storeWidened(U8x8 part, int* counts) {
-  const I32x8 c = __builtin_convertvector(part, I32x8);
-  std::memcpy(counts, &c, sizeof(c));
+// counts[0..7] = part.
+[[gnu::always_inline]] inline void storeWidened(I32x8 part, int* counts) { std::memcpy(counts, &part, sizeof(part)); }
+
+// Lanes 31 - 8 P, 31 - 8 P - 1, ..., 31 - 8 P - 7 of acc widened to 32 bits, in that order: one
+// shuffle with zeros (a conversion from eight bytes is assembled lane by lane by GCC 12).
+template <int P>
+[[gnu::always_inline]] inline I32x8 reversedPart(const U8x32& acc) {
+  constexpr int b = 31 - 8 * P;
+  constexpr int z = 32;  // a lane of the zero vector
+  const U8x32 zero{};
+  const U8x32 w = __builtin_shufflevector(acc, zero, b, z, z, z, b - 1, z, z, z, b - 2, z, z, z, b - 3, z, z, z,
+                                          b - 4, z, z, z, b - 5, z, z, z, b - 6, z, z, z, b - 7, z, z, z);
+  return std::bit_cast<I32x8>(w);
 }
 
 // Adds the byte lanes of `acc` to counts[first_lane_offset - j] for lane j (offsets
@@ -75,13 +85,8 @@ typedef std::int32_t I32x8 __attribute__((vector_size(32)));
   if (first_lane_offset - (kLanes - 1) >= 0 && first_lane_offset < offsets) {
     // All 32 offsets exist: the lanes reversed (lane k then holds offset first - 31 + k),
     // widened to 32 bits eight at a time.
-    const U8x32 r = __builtin_shufflevector(acc, acc, 31, 30, 29, 28, 27, 26, 25, 24, 23, 22, 21, 20, 19, 18, 17, 16,
-                                            15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
     const int first = first_lane_offset - (kLanes - 1);
-    const U8x8 parts[4] = {__builtin_shufflevector(r, r, 0, 1, 2, 3, 4, 5, 6, 7),
-                           __builtin_shufflevector(r, r, 8, 9, 10, 11, 12, 13, 14, 15),
-                           __builtin_shufflevector(r, r, 16, 17, 18, 19, 20, 21, 22, 23),
-                           __builtin_shufflevector(r, r, 24, 25, 26, 27, 28, 29, 30, 31)};
+    const I32x8 parts[4] = {reversedPart<0>(acc), reversedPart<1>(acc), reversedPart<2>(acc), reversedPart<3>(acc)};
     for (int p = 0; p < 4; ++p) {
       if (strip != nullptr && store) storeWidened(parts[p], strip + first + 8 * p);
       else if (strip != nullptr) addWidened(parts[p], strip + first + 8 * p);
@@ -735,6 +740,23 @@ typedef std::uint8_t U8x8 __attribute__((vector_size(8)));
   v = __builtin_shufflevector(v, v, 7, 6, 5, 4, 3, 2, 1, 0);
 }
 
+// The N bytes of v widened to N 32-bit lanes (lane k from byte k, or from byte N - 1 - k when
+// Reversed) by one shuffle with zeros: GCC 12 assembles a conversion from a byte vector
+// lane by lane.
+template <class I32, bool Reversed, class U8, std::size_t... K>
+[[gnu::always_inline]] inline I32 widenedBytes(U8 v, std::index_sequence<K...>) {
+  constexpr int n = sizeof(U8);
+  const U8 zero{};
+  const auto w = __builtin_shufflevector(v, zero, (K % 4 == 0 ? (Reversed ? n - 1 - static_cast<int>(K / 4)
+                                                                           : static_cast<int>(K / 4))
+                                                              : n)...);
+  return std::bit_cast<I32>(w);
+}
+template <class I32, bool Reversed, class U8>
+[[gnu::always_inline]] inline I32 widenedBytes(U8 v) {
+  return widenedBytes<I32, Reversed>(v, std::make_index_sequence<4 * sizeof(U8)>{});
+}
+
 template <class I32, class U8>
 [[gnu::always_inline]] inline void mirroredRowImpl(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g,
                                                    int axis, int n, std::int32_t* sm, std::int32_t* sab) {
@@ -757,9 +779,8 @@ template <class I32, class U8>
     load(ga - j - (kLanes - 1), gl8);
     reverseLanes(wl);
     reverseLanes(ml);
-    I32 gl = __builtin_convertvector(gl8, I32);
-    reverseLanes(gl);
-    const I32 gr = __builtin_convertvector(gr8, I32);
+    const I32 gl = widenedBytes<I32, true>(gl8);
+    const I32 gr = widenedBytes<I32, false>(gr8);
     load(sm + j, s);
     load(sab + j, t);
     s += wl * mr + ml * wr;
