@@ -6,7 +6,6 @@
 #include <cstring>
 #include <limits>
 #include <string_view>
-#include <utility>
 
 // The 32-byte vector helpers below are internal and always inlined: the note
 // about their calling convention without AVX does not apply.
@@ -740,23 +739,6 @@ typedef std::uint8_t U8x8 __attribute__((vector_size(8)));
   v = __builtin_shufflevector(v, v, 7, 6, 5, 4, 3, 2, 1, 0);
 }
 
-// The N bytes of v widened to N 32-bit lanes (lane k from byte k, or from byte N - 1 - k when
-// Reversed) by one shuffle with zeros: GCC 12 assembles a conversion from a byte vector
-// lane by lane.
-template <class I32, bool Reversed, class U8, std::size_t... K>
-[[gnu::always_inline]] inline I32 widenedBytes(U8 v, std::index_sequence<K...>) {
-  constexpr int n = sizeof(U8);
-  const U8 zero{};
-  const auto w = __builtin_shufflevector(v, zero, (K % 4 == 0 ? (Reversed ? n - 1 - static_cast<int>(K / 4)
-                                                                           : static_cast<int>(K / 4))
-                                                              : n)...);
-  return std::bit_cast<I32>(w);
-}
-template <class I32, bool Reversed, class U8>
-[[gnu::always_inline]] inline I32 widenedBytes(U8 v) {
-  return widenedBytes<I32, Reversed>(v, std::make_index_sequence<4 * sizeof(U8)>{});
-}
-
 template <class I32, class U8>
 [[gnu::always_inline]] inline void mirroredRowImpl(const std::int32_t* w, const std::int32_t* m, const std::uint8_t* g,
                                                    int axis, int n, std::int32_t* sm, std::int32_t* sab) {
@@ -779,8 +761,9 @@ template <class I32, class U8>
     load(ga - j - (kLanes - 1), gl8);
     reverseLanes(wl);
     reverseLanes(ml);
-    const I32 gl = widenedBytes<I32, true>(gl8);
-    const I32 gr = widenedBytes<I32, false>(gr8);
+    I32 gl = __builtin_convertvector(gl8, I32);
+    reverseLanes(gl);
+    const I32 gr = __builtin_convertvector(gr8, I32);
     load(sm + j, s);
     load(sab + j, t);
     s += wl * mr + ml * wr;
