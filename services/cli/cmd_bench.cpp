@@ -3,8 +3,8 @@
 // source, and OpenCV StereoBM (128 disparities, block 15, one thread) on the same
 // pairs in the same run, for a side-by-side ratio. With more than 5 obstacles
 // allowed, the frames are measured a second time as the speed targets count them
-// (up to 5 obstacles). Every frame is measured --rounds times, the measurements
-// alternating round by round; each figure keeps its fastest per frame.
+// (up to 5 obstacles). Every frame is measured --rounds times, its measurements
+// following each other frame by frame; each figure keeps its fastest per frame.
 #include <algorithm>
 #include <chrono>
 #include <fstream>
