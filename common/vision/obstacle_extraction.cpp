@@ -60,16 +60,6 @@ inline bool matchAtEvery(const std::uint8_t* l, const std::uint8_t* r, int x, in
   return any;
 }
 
-// 1 in every byte of w that is nonzero, 0 in the others, without a branch: the feature flags
-// of a word of pixels.
-template <class Word>
-constexpr Word nonZeroBytes(Word w) {
-  constexpr Word ones = static_cast<Word>(~Word{0} / 255), low7 = static_cast<Word>(ones * 0x7f);
-  return static_cast<Word>(((((w & low7) + low7) | w) >> 7) & ones);
-}
-static_assert(nonZeroBytes<std::uint32_t>(0x00ff0180u) == 0x00010101u);
-static_assert(nonZeroBytes<std::uint64_t>(0x7f00000100800000ull) == 0x0100000100010000ull);
-
 // Number of ones in the 0/1 bytes p[0, n): eight bytes at a time (each byte of the product's
 // top byte sums the eight, at most 8).
 int countOnes(const std::uint8_t* p, int n) {
@@ -822,7 +812,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
             std::uint32_t lw, mw;
             std::memcpy(&lw, remaining.ptr<std::uint8_t>(y) + cx0, sizeof(lw));
             std::memcpy(&mw, maskRow(candidate_masks_, remaining, right, y, cx0, cx0 + 4) + cx0, sizeof(mw));
-            const std::uint32_t feature = nonZeroBytes(lw);
+            const std::uint32_t feature = simd::nonZeroBytes(lw);
             const std::uint32_t hit = mw & feature;  // mask bytes are 0 or 1
             // The four flags summed by a multiplication into the top byte (the baseline x86-64
             // build has no popcount instruction: std::popcount is a library call there).
@@ -1037,7 +1027,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
                 std::uint64_t lw, mw;
                 std::memcpy(&lw, remaining.ptr<std::uint8_t>(y) + block_x0, sizeof(lw));
                 std::memcpy(&mw, maskRow(growth_masks_, remaining, right, y, req_lo, req_hi) + block_x0, sizeof(mw));
-                const std::uint64_t feature = nonZeroBytes(lw);
+                const std::uint64_t feature = simd::nonZeroBytes(lw);
                 present += feature;
                 matched += mw & feature;  // mask bytes are 0 or 1
               }

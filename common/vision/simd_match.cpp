@@ -141,13 +141,10 @@ template <int Step = kLanes, class Vector, class Scalar>
   for (; x < b; ++x) scalar(x);
 }
 
-// Bit j set where byte j of w is non-zero: the high bit of each byte marks a non-zero
-// byte (its low seven bits carried into it, or its own), and the multiplication moves
-// the eight marks, one per byte, into the top byte (the partial products never overlap).
+// Bit j set where byte j of w is non-zero: the multiplication moves the 0/1 flag of each
+// byte (nonZeroBytes) into the top byte (the partial products never overlap).
 [[gnu::always_inline]] constexpr unsigned nonZeroBits(std::uint64_t w) {
-  constexpr std::uint64_t kLow7 = 0x7f7f7f7f7f7f7f7full;
-  const std::uint64_t high = (((w & kLow7) + kLow7) | w) & ~kLow7;
-  return static_cast<unsigned>(((high >> 7) * 0x0102040810204080ull) >> 56);
+  return static_cast<unsigned>((nonZeroBytes(w) * 0x0102040810204080ull) >> 56);
 }
 static_assert(nonZeroBits(0) == 0 && nonZeroBits(0x0100ff0000800001ull) == 0b10100101u);
 
@@ -168,7 +165,7 @@ constexpr CompressTable makeCompressTable() {
 constexpr CompressTable kCompress = makeCompressTable();
 
 // Gathers into idx the x in [x, x1) with left[x] != 0 (and skip[x] == 0 when skip
-// is not null), branch-free, until x1 or until idx holds kMaxGather - 7 or more;
+// is not null), without a branch per pixel, until x1 or until idx holds kMaxGather - 7 or more;
 // returns how many and advances x. Eight pixels at a time: the mask of those to keep
 // selects their positions from kCompress, stored as eight indices of which the first
 // popcount(mask) count (idx has room for the rest).

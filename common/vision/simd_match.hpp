@@ -124,4 +124,14 @@ float houghWindowSums(const float* lo, const float* mid, const float* hi, int n,
 // Name of the build in use ("avx2" or "baseline").
 const char* kernelName();
 
+// 1 in every byte of w that is nonzero, 0 in the others, without a branch (the feature flags
+// of a word of pixels): a byte's low seven bits carry into its high bit, or it is set already.
+template <class Word>
+constexpr Word nonZeroBytes(Word w) {
+  constexpr Word ones = static_cast<Word>(~Word{0} / 255), low7 = static_cast<Word>(ones * 0x7f);
+  return static_cast<Word>(((((w & low7) + low7) | w) >> 7) & ones);
+}
+static_assert(nonZeroBytes<std::uint32_t>(0x00ff0180u) == 0x00010101u);
+static_assert(nonZeroBytes<std::uint64_t>(0x7f00000100800000ull) == 0x0100000100010000ull);
+
 }  // namespace sg::simd
