@@ -45,18 +45,18 @@ install_browser_tooling() {
   fi
 }
 
+# Every tree hashes paths relative to the clone (ccache base_dir), so a fresh
+# clone anywhere reuses what another clone compiled.
+sg_ccache() { CCACHE_BASEDIR=${CCACHE_BASEDIR:-$root} CCACHE_NOHASHDIR=${CCACHE_NOHASHDIR:-true} "$@"; }
+
 configure_and_build() {
   local werror=OFF
   [ "${CI:-}" = true ] && werror=ON
   say "configuring $build"
   cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSG_WERROR="$werror" $SG_CMAKE_ARGS
   say "building with $jobs jobs"
-  cmake --build "$build" -j "$jobs"
+  sg_ccache cmake --build "$build" -j "$jobs"
 }
-
-# The sanitizer and fuzz trees hash paths relative to the clone (ccache
-# base_dir), so a fresh clone anywhere reuses what another clone compiled.
-sg_ccache() { CCACHE_BASEDIR=${CCACHE_BASEDIR:-$root} CCACHE_NOHASHDIR=${CCACHE_NOHASHDIR:-true} "$@"; }
 
 # Sanitizer tree: the unit and integration tests under ASan + UBSan (no
 # benchmarks, no browser test). Any sanitizer report fails the test that ran it.

@@ -116,14 +116,17 @@ template <int P>
 }
 
 // matchMask's range for each lane of a: lo = max(a - tol, 1) and width = min(a + tol, 255) - lo,
-// with vtol = tol and vtop = 255 - tol in every lane (saturating arithmetic on bytes).
-[[gnu::always_inline]] inline void matchRange(const U8x32& a, const U8x32& vtol, const U8x32& vtop, U8x32& lo, U8x32& width) {
-  const U8x32 zero{};
-  const U8x32 one = zero + 1;
-  lo = a > vtol ? a - vtol : zero;
+// with vtol = tol in every lane. Saturating byte arithmetic as minima, which compile to single
+// instructions: a - min(a, tol) is a - tol clamped at 0, a + min(255 - a, tol) is a + tol
+// clamped at 255 (255 - a is ~a).
+[[gnu::always_inline]] inline void matchRange(const U8x32& a, const U8x32& vtol, U8x32& lo, U8x32& width) {
+  const U8x32 one = U8x32{} + 1;
+  const U8x32 down = a < vtol ? a : vtol;
+  lo = a - down;
   lo = lo < one ? one : lo;
-  const U8x32 hi = a > vtop ? zero + 255 : a + vtol;
-  width = hi - lo;
+  const U8x32 room = ~a;
+  const U8x32 up = room < vtol ? room : vtol;
+  width = a + up - lo;
 }
 
 // Calls vec(x) for whole vectors x = a, a + Step, ... inside [a, b), then for the rest either
@@ -441,7 +444,6 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
 [[gnu::always_inline]] inline void markImpl(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1,
                                             int d0, int d1, int tol, std::uint8_t* marks) {
   const U8x32 vtol = splat(tol);
-  const U8x32 vtop = splat(255 - tol);
   const U8x32 zero{};
   for (int d = d0; d <= d1; ++d) {
     const int xs = std::max(x0, d);
@@ -450,7 +452,7 @@ typedef std::int16_t I16x16 __attribute__((vector_size(32)));
       const U8x32 a = load(left + x);
       const U8x32 b = load(right + x - d);
       U8x32 lo, width;
-      matchRange(a, vtol, vtop, lo, width);
+      matchRange(a, vtol, lo, width);
       const U8x32 m = matchMask(b, lo, width) & __builtin_convertvector(a != zero, U8x32);
       U8x32 old = load(marks + x);
       old |= m;
@@ -474,7 +476,6 @@ template <int N, int H>
                                                std::uint8_t* out) {
   const int half = H >= 0 ? H : runtime_half;
   const U8x32 vtol = splatFromTable(tol);  // tol in [0, 255]
-  const U8x32 vtop = splatFromTable(255 - tol);
   const U8x32 one = splat(1);
   const U8x32 zero{};
   const int qlo = x0 - half;  // q[i][j - qlo] describes pixel j at offset d + i
@@ -500,7 +501,7 @@ template <int N, int H>
   auto qVector = [&](int j) __attribute__((always_inline)) {
     const U8x32 a = load(left + j);
     U8x32 lo, w;
-    matchRange(a, vtol, vtop, lo, w);
+    matchRange(a, vtol, lo, w);
     const U8x32 absent = __builtin_convertvector(a == zero, U8x32);
     for (int i = 0; i < N; ++i) {
       const U8x32 ok = matchMask(load(right + j - d - i), lo, w) | absent;
