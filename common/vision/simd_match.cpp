@@ -115,18 +115,18 @@ template <int P>
   return __builtin_convertvector((b - lo) <= width, U8x32);
 }
 
-// matchMask's range for each lane of a: lo = max(a - tol, 1) and width = min(a + tol, 255) - lo,
-// with vtol = tol in every lane. Saturating byte arithmetic as minima, which compile to single
-// instructions: a - min(a, tol) is a - tol clamped at 0, a + min(255 - a, tol) is a + tol
-// clamped at 255 (255 - a is ~a).
+// matchMask's range for each lane of a != 0: lo = max(a - tol, 1) and width = min(a + tol, 255) - lo,
+// with vtol = tol in every lane (for a = 0 the range is meaningless: callers mask those lanes).
+// As byte minima, which compile to single instructions: for a >= 1, max(a - tol, 1) is
+// a - min(a - 1, tol), and min(a + tol, 255) is a + min(255 - a, tol) (255 - a is ~a), so that
+// width = min(a - 1, tol) + min(~a, tol).
 [[gnu::always_inline]] inline void matchRange(const U8x32& a, const U8x32& vtol, U8x32& lo, U8x32& width) {
-  const U8x32 one = U8x32{} + 1;
-  const U8x32 down = a < vtol ? a : vtol;
-  lo = a - down;
-  lo = lo < one ? one : lo;
+  const U8x32 below = a - 1;
+  const U8x32 down = below < vtol ? below : vtol;
   const U8x32 room = ~a;
   const U8x32 up = room < vtol ? room : vtol;
-  width = a + up - lo;
+  lo = a - down;
+  width = down + up;
 }
 
 // Calls vec(x) for whole vectors x = a, a + Step, ... inside [a, b), then for the rest either
@@ -502,9 +502,10 @@ template <int N, int H>
     const U8x32 a = load(left + j);
     U8x32 lo, w;
     matchRange(a, vtol, lo, w);
-    const U8x32 absent = __builtin_convertvector(a == zero, U8x32);
+    // A pixel without a feature matches whatever it faces: the widest range (b - lo <= 255).
+    w |= __builtin_convertvector(a == zero, U8x32);
     for (int i = 0; i < N; ++i) {
-      const U8x32 ok = matchMask(load(right + j - d - i), lo, w) | absent;
+      const U8x32 ok = matchMask(load(right + j - d - i), lo, w);
       std::memcpy(q[i] + (j - qlo), &ok, sizeof(ok));
     }
   };
