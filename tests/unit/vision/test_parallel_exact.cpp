@@ -634,6 +634,50 @@ TEST(FastObstacles, WindowMatchRowMatchesTheReferenceForAnyOffsetsWindowAndSpan)
   }
 }
 
+// Short spans inside the row take a path of their own (every offset at once, no scratch rows):
+// spans around its limits, windows touching the row's ends or the first pixel with a right
+// pixel at every offset, one to nine offsets, tolerances up to the extremes.
+TEST(FastObstacles, WindowMatchRowMatchesTheReferenceOnShortSpansInsideTheRow) {
+  cv::RNG rng(29);
+  std::vector<std::uint8_t> left, right, scratch, fast, ref;
+  const int width = 400;
+  for (int trial = 0; trial < 40; ++trial) {
+    randomFeatureRow(rng, width, left);
+    const int shift = rng.uniform(0, 60);
+    right.assign(static_cast<std::size_t>(width), 0);
+    for (int x = 0; x < width; ++x) {
+      const int src = x + shift;
+      int v = src < width ? left[static_cast<std::size_t>(src)] : 0;
+      if (v != 0) v = std::clamp(v + rng.uniform(-14, 15), 1, 255);
+      right[static_cast<std::size_t>(x)] = static_cast<std::uint8_t>(v);
+    }
+    for (const int span : {31, 32, 33, 64, 95, 127, 128, 129}) {
+      for (const int n : {1, 3, 5, 8, 9}) {
+        const int tol = trial % 10 == 0 ? 0 : trial % 10 == 1 ? 255 : rng.uniform(0, 30);
+        const int d0 = std::max(0, shift - rng.uniform(0, 3));
+        const int d1 = d0 + n - 1;
+        const int first = d1 + 1;  // the first x0 whose window has a right pixel at every offset
+        for (const int x0 : {first - 1, first, first + rng.uniform(0, 100), width - 1 - span, width - span}) {
+          const int x1 = std::min(width, x0 + span);
+          if (x0 < 0 || x1 <= x0) continue;
+          for (const int half : {1, 2}) {
+            SCOPED_TRACE("offsets " + std::to_string(d0) + ".." + std::to_string(d1) + ", half " +
+                         std::to_string(half) + ", tolerance " + std::to_string(tol) + ", columns " +
+                         std::to_string(x0) + ".." + std::to_string(x1));
+            scratch.assign(static_cast<std::size_t>(simd::windowMatchScratchSize(x1 - x0, half)), 0x5A);
+            fast.assign(static_cast<std::size_t>(width), 0x77);
+            ref.assign(static_cast<std::size_t>(width), 0x77);
+            simd::windowMatchRow(left.data(), right.data(), width, x0, x1, d0, d1, tol, half, scratch.data(),
+                                 fast.data());
+            windowMatchRowReference(left.data(), right.data(), width, x0, x1, d0, d1, tol, half, ref.data());
+            ASSERT_EQ(fast, ref);
+          }
+        }
+      }
+    }
+  }
+}
+
 // Workspaces sized for a larger image are reused for a smaller one: the result is
 // that of a fresh segmenter (the obstacle cells, masks and padded rows included).
 TEST(FastObstacles, ASmallerImageAfterALargerOneGivesTheFreshResult) {
