@@ -237,16 +237,26 @@ const std::uint8_t* ObstacleExtractor::fillMaskRow(RowMasks& masks, const cv::Ma
   int& lo = masks.lo[static_cast<std::size_t>(y)];
   int& hi = masks.hi[static_cast<std::size_t>(y)];
   // Grow the valid span to cover [x0, x1), by at least a chunk on each side that grows
-  // (columns are often asked for one by one while a cluster's sides are searched).
-  int a = x0, b = x1;
+  // (columns are often asked for one by one while a cluster's sides are searched). Only the
+  // columns added are computed: a mask column does not depend on the span it is computed in.
+  const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
+  const std::uint8_t* r = right.ptr<std::uint8_t>(y);
   if (hi > lo) {
-    a = x0 < lo ? std::max(0, std::min(x0, lo - kMaskChunk)) : lo;
-    b = x1 > hi ? std::min(cols_, std::max(x1, hi + kMaskChunk)) : hi;
-  } else {
-    firstMaskSpan(a, b);
+    if (x0 < lo) {
+      const int a = std::max(0, std::min(x0, lo - kMaskChunk));
+      matchRow(l, r, a, lo, masks.d0, masks.d1, row);
+      lo = a;
+    }
+    if (x1 > hi) {
+      const int b = std::min(cols_, std::max(x1, hi + kMaskChunk));
+      matchRow(l, r, hi, b, masks.d0, masks.d1, row);
+      hi = b;
+    }
+    return row;
   }
-  // The columns already valid are recomputed with the rest: the result does not depend on the span.
-  matchRow(remaining.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), a, b, masks.d0, masks.d1, row);
+  int a = x0, b = x1;
+  firstMaskSpan(a, b);
+  matchRow(l, r, a, b, masks.d0, masks.d1, row);
   lo = a;
   hi = b;
   return row;
