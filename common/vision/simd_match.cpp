@@ -553,36 +553,36 @@ template <int H>
   }
 }
 
-// The window of half width 1 over a short span inside the row, every offset at once: the three
-// pixels' grey ranges are held in registers and each output vector is finished where it is
-// computed, with no q rows (their set-up costs more than a short span's vectors). Requires
+// The window of half width H (0 or 1) over a short span inside the row, every offset at once:
+// the window pixels' grey ranges are held in registers and each output vector is finished where
+// it is computed, with no q rows (their set-up costs more than a short span's vectors). Requires
 // x1 - x0 >= kLanes and every window pixel inside the row with a right pixel at every offset:
-// x0 - 1 - d1 >= 0, x1 + 1 <= width. Per pixel the same test as windowGroup.
+// x0 - H - d1 >= 0, x1 + H <= width. Per pixel the same test as windowGroup.
 constexpr int kFusedMaxSpan = 128;  // beyond it the q rows' two passes are cheaper
 constexpr int kFusedMaxOffsets = 8;
 [[gnu::always_inline]] inline bool fusedWindowApplies(int width, int x0, int x1, int d0, int d1, int half) {
-  return half == 1 && d0 >= 0 && d1 >= d0 && d1 - d0 < kFusedMaxOffsets && x1 - x0 >= kLanes &&
-         x1 - x0 <= kFusedMaxSpan && x0 - 1 - d1 >= 0 && x1 + 1 <= width;
+  return (half == 0 || half == 1) && d0 >= 0 && d1 >= d0 && d1 - d0 < kFusedMaxOffsets && x1 - x0 >= kLanes &&
+         x1 - x0 <= kFusedMaxSpan && x0 - half - d1 >= 0 && x1 + half <= width;
 }
+template <int H>
 [[gnu::always_inline]] inline void fusedWindow(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1,
                                                int d0, int d1, int tol, std::uint8_t* out) {
   const U8x32 vtol = splatFromTable(tol);  // tol in [0, 255]
   const U8x32 one = splat(1);
   const U8x32 zero{};
-  auto rangeAt = [&](int j, U8x32& lo, U8x32& w) __attribute__((always_inline)) {
-    const U8x32 a = load(left + j);
-    matchRange(a, vtol, lo, w);
-    w |= __builtin_convertvector(a == zero, U8x32);  // no feature: matches whatever it faces
-  };
   auto vec = [&](int xv) __attribute__((always_inline)) {
-    U8x32 lo_l, w_l, lo_c, w_c, lo_r, w_r;
-    rangeAt(xv - 1, lo_l, w_l);
-    rangeAt(xv, lo_c, w_c);
-    rangeAt(xv + 1, lo_r, w_r);
+    U8x32 lo[2 * H + 1], w[2 * H + 1];
+    for (int k = 0; k <= 2 * H; ++k) {
+      const U8x32 a = load(left + xv + k - H);
+      matchRange(a, vtol, lo[k], w[k]);
+      w[k] |= __builtin_convertvector(a == zero, U8x32);  // no feature: matches whatever it faces
+    }
     U8x32 any{};
     for (int d = d0; d <= d1; ++d) {
-      const std::uint8_t* r = right + xv - d;
-      any |= matchMask(load(r - 1), lo_l, w_l) & matchMask(load(r), lo_c, w_c) & matchMask(load(r + 1), lo_r, w_r);
+      const std::uint8_t* r = right + xv - d - H;
+      U8x32 m = matchMask(load(r), lo[0], w[0]);
+      for (int k = 1; k <= 2 * H; ++k) m &= matchMask(load(r + k), lo[k], w[k]);
+      any |= m;
     }
     const U8x32 o = any & __builtin_convertvector(load(left + xv) != zero, U8x32) & one;
     std::memcpy(out + xv, &o, sizeof(o));
@@ -597,7 +597,8 @@ constexpr int kFusedMaxOffsets = 8;
                                                    std::uint8_t* scratch, std::uint8_t* out) {
   if (x1 <= x0) return;
   if (fusedWindowApplies(width, x0, x1, d0, d1, half)) {
-    fusedWindow(left, right, x0, x1, d0, d1, tol, out);
+    if (half == 1) fusedWindow<1>(left, right, x0, x1, d0, d1, tol, out);
+    else fusedWindow<0>(left, right, x0, x1, d0, d1, tol, out);
     return;
   }
   std::memset(out + x0, 0, static_cast<std::size_t>(x1 - x0));
