@@ -210,13 +210,15 @@ constexpr int kMaxGather = 255;  // the most a byte lane can count
   return n;
 }
 
-// matchMask's range of every grey value a for one tolerance, as broadcasts: lo = max(a - tol, 1)
-// and width = min(a + tol, 255) - lo, one cache line per grey value. Built once per thread
-// and tolerance.
+// The gathered feature pixels count mismatches, in two instructions per vector: b misses a
+// when (b - lo) mod 256 > width unsigned, i.e. when (b - lo + 128) mod 256 > width - 128 as
+// signed bytes (adding 128 maps the unsigned order onto the signed one). Per grey value a
+// and one tolerance, as broadcasts: bias = 128 - lo and limit = width ^ 0x80, lo and width as
+// in matchRange, one cache line per grey value. Built once per thread and tolerance.
 struct RangeSplats {
   struct Entry {
-    std::uint8_t lo[kLanes];
-    std::uint8_t width[kLanes];
+    std::uint8_t bias[kLanes];
+    std::uint8_t limit[kLanes];
   };
   alignas(64) Entry of[256];
   int tol = -1;
@@ -227,26 +229,35 @@ struct RangeSplats {
     for (int a = 0; a < 256; ++a) {
       const int lo = std::max(a - tol, 1);
       const int hi = std::min(a + tol, 255);
-      std::memset(table.of[a].lo, lo & 0xFF, kLanes);
-      std::memset(table.of[a].width, (hi - lo) & 0xFF, kLanes);
+      std::memset(table.of[a].bias, (128 - lo) & 0xFF, kLanes);
+      std::memset(table.of[a].limit, ((hi - lo) ^ 0x80) & 0xFF, kLanes);
     }
     table.tol = tol;
   }
   return table;
 }
 
-// The n gathered feature pixels idx[0..n) matched against the right row at every offset:
-// lane j of acc[i] counts down the matches at offset dv - 1 - (kLanes * i + j).
+typedef std::int8_t S8x32 __attribute__((vector_size(32)));
+// 0xFF in the lanes where b misses the range of (bias, limit) (see RangeSplats).
+[[gnu::always_inline]] inline U8x32 mismatchMask(U8x32 b, U8x32 bias, U8x32 limit) {
+  return std::bit_cast<U8x32>(std::bit_cast<S8x32>(b + bias) > std::bit_cast<S8x32>(limit));
+}
+
+// The n (at most 255) gathered feature pixels idx[0..n) matched against the right row at every
+// offset: lane j of acc[i] ends with the matches at offset dv - 1 - (kLanes * i + j), counted
+// as n minus the mismatches.
 [[gnu::always_inline]] inline void matchGathered(const std::uint8_t* left, const std::uint8_t* right, const int* idx,
                                                  int n, const RangeSplats& ranges, int dv, int nv, U8x32* acc) {
   for (int k = 0; k < n; ++k) {
     const int xi = idx[k];
     const RangeSplats::Entry& range = ranges.of[left[xi]];
-    const U8x32 vlo = load(range.lo);
-    const U8x32 vw = load(range.width);
+    const U8x32 bias = load(range.bias);
+    const U8x32 limit = load(range.limit);
     const std::uint8_t* base = right + xi - (dv - 1);
-    for (int i = 0; i < nv; ++i) acc[i] -= matchMask(load(base + kLanes * i), vlo, vw);
+    for (int i = 0; i < nv; ++i) acc[i] -= mismatchMask(load(base + kLanes * i), bias, limit);
   }
+  const U8x32 all = splatFromTable(n);
+  for (int i = 0; i < nv; ++i) acc[i] = all - acc[i];
 }
 
 // Lane j of vector i holds the count of offset d = dv - 1 - (kLanes * i + j).

@@ -534,6 +534,42 @@ TEST(FastObstacles, AddBytesMatchesTheScalarSum) {
   }
 }
 
+// The correlation's kernel against a count pixel by pixel: every tolerance class (none, the
+// default, half the grey range and beyond, all of it), grey values at both ends of the range,
+// rows with more feature pixels than a byte lane counts, offsets around the vector width.
+TEST(FastCorrelation, AccumulateMatchesCountsEveryMatchAtEveryToleranceAndGreyValue) {
+  cv::RNG rng(43);
+  for (const int width : {7, 300, 1242}) {
+    for (const int offsets : {1, 31, 32, 33, 128, 200}) {
+      for (const int tol : {0, 1, 12, 127, 128, 200, 255}) {
+        const int pad = simd::rightPadding(offsets);
+        std::vector<std::uint8_t> left(static_cast<std::size_t>(width)), padded(static_cast<std::size_t>(pad + width), 0);
+        auto grey = [&] {  // a third of the values at the ends of the range
+          const int pick = rng.uniform(0, 6);
+          return static_cast<std::uint8_t>(pick == 0 ? rng.uniform(1, 4) : pick == 1 ? rng.uniform(252, 256)
+                                                                                     : rng.uniform(1, 256));
+        };
+        for (int x = 0; x < width; ++x) {
+          left[static_cast<std::size_t>(x)] = rng.uniform(0, 5) == 0 ? 0 : grey();
+          padded[static_cast<std::size_t>(pad + x)] = rng.uniform(0, 5) == 0 ? 0 : grey();
+        }
+        const std::uint8_t* right = padded.data() + pad;
+        std::vector<int> fast(static_cast<std::size_t>(offsets), 3), ref(static_cast<std::size_t>(offsets), 3);
+        simd::accumulateMatches(left.data(), nullptr, right, 0, width, offsets, tol, fast.data());
+        for (int x = 0; x < width; ++x) {
+          const int a = left[static_cast<std::size_t>(x)];
+          if (a == 0) continue;
+          for (int d = 0; d < offsets && d <= x; ++d) {
+            const int b = right[x - d];
+            ref[static_cast<std::size_t>(d)] += b != 0 && std::abs(a - b) <= tol;
+          }
+        }
+        ASSERT_EQ(fast, ref) << "width " << width << ", offsets " << offsets << ", tolerance " << tol;
+      }
+    }
+  }
+}
+
 // The correlation split into column strips: each strip's counts as the plain kernel gives them
 // on the strip alone (zeros for a strip without features), and the row's as their sum.
 TEST(FastCorrelation, StripCountsMatchThePlainKernelStripByStrip) {
