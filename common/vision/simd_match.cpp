@@ -243,6 +243,16 @@ typedef std::int8_t S8x32 __attribute__((vector_size(32)));
   return std::bit_cast<U8x32>(std::bit_cast<S8x32>(b + bias) > std::bit_cast<S8x32>(limit));
 }
 
+// mismatchMask's (bias, limit) for each lane of a (matchRange's range); a lane without a feature
+// (a = 0) gets the widest range, width 255, limit 127: nothing misses it.
+[[gnu::always_inline]] inline void mismatchRange(const U8x32& a, const U8x32& vtol, U8x32& bias, U8x32& limit) {
+  U8x32 lo, width;
+  matchRange(a, vtol, lo, width);
+  width |= __builtin_convertvector(a == U8x32{}, U8x32);
+  bias = (U8x32{} + 128) - lo;
+  limit = width ^ 0x80;
+}
+
 // The n (at most 255) gathered feature pixels idx[0..n) matched against the right row at every
 // offset: lane j of acc[i] ends with the matches at offset dv - 1 - (kLanes * i + j), counted
 // as n minus the mismatches.
@@ -489,8 +499,9 @@ typedef std::uint16_t U16x16 __attribute__((vector_size(32)));
   }
 }
 
-// q[j] = 0xFF where pixel j cannot spoil a window at offset d (j < d, outside the
-// row, no left feature, or a right match), then the windows ANDed over [-half, half].
+// q[j] = 0xFF where pixel j spoils a window at offset d (a left feature without a right match
+// within the tolerance), 0 where it cannot (j < d, outside the row, no left feature, or a
+// match); a window over [-half, half] matches where none of its pixels spoils it.
 // N offsets d .. d + N - 1 at a time, one q row each: a left vector and its grey range
 // serve all of them, and their windows are ORed before `out` is updated.
 // H >= 0 is the window's half width known at compile time (its loops unrolled), H < 0 takes `half`.
@@ -510,27 +521,24 @@ template <int N, int H>
   auto qScalar = [&](int i, int j) __attribute__((always_inline)) {
     const int a = left[j];
     const int b = right[j - d - i];
-    q[i][j - qlo] = (a == 0 || (b != 0 && std::abs(a - b) <= tol)) ? 0xFF : 0;
+    q[i][j - qlo] = (a == 0 || (b != 0 && std::abs(a - b) <= tol)) ? 0 : 0xFF;
   };
   // Per offset, the pixels [ja, jb) are compared; all offsets together from the largest ja.
   const int ja_all = std::min(std::max(qlo, d + N - 1), qhi);
   for (int i = 0; i < N; ++i) {
     const int ja = std::min(std::max(qlo, d + i), qhi);
     const int jb = std::max(jw, ja);
-    if (ja > qlo) std::memset(q[i], 0xFF, static_cast<std::size_t>(ja - qlo));
+    if (ja > qlo) std::memset(q[i], 0, static_cast<std::size_t>(ja - qlo));
     for (int j = ja; j < std::min(ja_all, jb); ++j) qScalar(i, j);
-    if (qhi > jb) std::memset(q[i] + (jb - qlo), 0xFF, static_cast<std::size_t>(qhi - jb));
+    if (qhi > jb) std::memset(q[i] + (jb - qlo), 0, static_cast<std::size_t>(qhi - jb));
   }
   // The last vector may overlap the one before it (same values written twice).
   auto qVector = [&](int j) __attribute__((always_inline)) {
-    const U8x32 a = load(left + j);
-    U8x32 lo, w;
-    matchRange(a, vtol, lo, w);
-    // A pixel without a feature matches whatever it faces: the widest range (b - lo <= 255).
-    w |= __builtin_convertvector(a == zero, U8x32);
+    U8x32 bias, limit;
+    mismatchRange(load(left + j), vtol, bias, limit);
     for (int i = 0; i < N; ++i) {
-      const U8x32 ok = matchMask(load(right + j - d - i), lo, w);
-      std::memcpy(q[i] + (j - qlo), &ok, sizeof(ok));
+      const U8x32 miss = mismatchMask(load(right + j - d - i), bias, limit);
+      std::memcpy(q[i] + (j - qlo), &miss, sizeof(miss));
     }
   };
   forVectors(ja_all, jw, qVector, [&](int j) __attribute__((always_inline)) {
@@ -540,19 +548,20 @@ template <int N, int H>
   // vector may overlap too. Pixel x matches at offset d + i only from x = d + i on.
   auto outScalar = [&](int i, int x) __attribute__((always_inline)) {
     int m = left[x] != 0;
-    for (int k = -half; k <= half; ++k) m &= q[i][x + k - qlo] != 0;
+    for (int k = -half; k <= half; ++k) m &= q[i][x + k - qlo] == 0;
     out[x] = static_cast<std::uint8_t>(out[x] | m);
   };
+  // A pixel matches at an offset when no pixel of its window misses there: it matches at none
+  // when every offset's window holds a miss.
   auto outVector = [&](int xv) __attribute__((always_inline)) {
-    const U8x32 present = __builtin_convertvector(load(left + xv) != zero, U8x32);
-    U8x32 any{};
+    U8x32 none = zero + 255;
     for (int i = 0; i < N; ++i) {
-      U8x32 m = present;
-      for (int k = -half; k <= half; ++k) m &= load(q[i] + (xv + k - qlo));
-      any |= m;
+      U8x32 missed = load(q[i] + (xv - half - qlo));
+      for (int k = -half + 1; k <= half; ++k) missed |= load(q[i] + (xv + k - qlo));
+      none &= missed;
     }
     U8x32 o = load(out + xv);
-    o |= any & one;
+    o |= ~(none | __builtin_convertvector(load(left + xv) == zero, U8x32)) & one;
     std::memcpy(out + xv, &o, sizeof(o));
   };
   const int xa_all = std::max(x0, d + N - 1);
@@ -595,20 +604,16 @@ template <int H>
   const U8x32 one = splat(1);
   const U8x32 zero{};
   auto vec = [&](int xv) __attribute__((always_inline)) {
-    U8x32 lo[2 * H + 1], w[2 * H + 1];
-    for (int k = 0; k <= 2 * H; ++k) {
-      const U8x32 a = load(left + xv + k - H);
-      matchRange(a, vtol, lo[k], w[k]);
-      w[k] |= __builtin_convertvector(a == zero, U8x32);  // no feature: matches whatever it faces
-    }
-    U8x32 any{};
+    U8x32 bias[2 * H + 1], limit[2 * H + 1];
+    for (int k = 0; k <= 2 * H; ++k) mismatchRange(load(left + xv + k - H), vtol, bias[k], limit[k]);
+    U8x32 none = zero + 255;  // lanes where every offset's window holds a miss
     for (int d = d0; d <= d1; ++d) {
       const std::uint8_t* r = right + xv - d - H;
-      U8x32 m = matchMask(load(r), lo[0], w[0]);
-      for (int k = 1; k <= 2 * H; ++k) m &= matchMask(load(r + k), lo[k], w[k]);
-      any |= m;
+      U8x32 missed = mismatchMask(load(r), bias[0], limit[0]);
+      for (int k = 1; k <= 2 * H; ++k) missed |= mismatchMask(load(r + k), bias[k], limit[k]);
+      none &= missed;
     }
-    const U8x32 o = any & __builtin_convertvector(load(left + xv) != zero, U8x32) & one;
+    const U8x32 o = ~(none | __builtin_convertvector(load(left + xv) == zero, U8x32)) & one;
     std::memcpy(out + xv, &o, sizeof(o));
   };
   // The span is at least a vector wide: the last vector overlaps the one before it (the same
