@@ -477,25 +477,39 @@ typedef std::uint16_t U16x16 __attribute__((vector_size(32)));
 
 [[gnu::always_inline]] inline void markImpl(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1,
                                             int d0, int d1, int tol, std::uint8_t* marks) {
-  const U8x32 vtol = splat(tol);
+  const U8x32 vtol = splatFromTable(tol);  // tol in [0, 255]
   const U8x32 zero{};
+  auto scalar = [&](int x, int d) __attribute__((always_inline)) {
+    const int a = left[x];
+    const int b = right[x - d];
+    if (a != 0 && b != 0 && std::abs(a - b) <= tol) marks[x] = 0xFF;
+  };
+  // From x = d1 on every offset has a right pixel: a left vector's range serves all offsets,
+  // and a pixel is marked unless it misses at every one (or is no feature).
+  const int xs_all = std::min(std::max(x0, d1), x1);
+  // Marks are ORed in: the last vector may overlap the one before it (same values again).
+  forVectors(xs_all, x1, [&](int x) __attribute__((always_inline)) {
+    const U8x32 a = load(left + x);
+    U8x32 bias, limit;
+    mismatchRange(a, vtol, bias, limit);
+    U8x32 none = zero + 255;
+    for (int d = d0; d <= d1; ++d) none &= mismatchMask(load(right + x - d), bias, limit);
+    U8x32 old = load(marks + x);
+    old |= ~(none | __builtin_convertvector(a == zero, U8x32));
+    std::memcpy(marks + x, &old, sizeof(old));
+  }, [&](int x) __attribute__((always_inline)) {
+    for (int d = d0; d <= d1; ++d) scalar(x, d);
+  });
+  // Before it, offset by offset over the pixels that have a right pixel there.
   for (int d = d0; d <= d1; ++d) {
-    const int xs = std::max(x0, d);
-    // Marks are ORed in: the last vector may overlap the one before it (same values again).
-    forVectors(xs, x1, [&](int x) __attribute__((always_inline)) {
+    forVectors(std::max(x0, d), xs_all, [&](int x) __attribute__((always_inline)) {
       const U8x32 a = load(left + x);
-      const U8x32 b = load(right + x - d);
-      U8x32 lo, width;
-      matchRange(a, vtol, lo, width);
-      const U8x32 m = matchMask(b, lo, width) & __builtin_convertvector(a != zero, U8x32);
+      U8x32 bias, limit;
+      mismatchRange(a, vtol, bias, limit);
       U8x32 old = load(marks + x);
-      old |= m;
+      old |= ~(mismatchMask(load(right + x - d), bias, limit) | __builtin_convertvector(a == zero, U8x32));
       std::memcpy(marks + x, &old, sizeof(old));
-    }, [&](int x) __attribute__((always_inline)) {
-      const int a = left[x];
-      const int b = right[x - d];
-      if (a != 0 && b != 0 && std::abs(a - b) <= tol) marks[x] = 0xFF;
-    });
+    }, [&](int x) __attribute__((always_inline)) { scalar(x, d); });
   }
 }
 

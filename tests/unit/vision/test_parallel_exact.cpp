@@ -570,6 +570,37 @@ TEST(FastCorrelation, AccumulateMatchesCountsEveryMatchAtEveryToleranceAndGreyVa
   }
 }
 
+// The removal's marking kernel against its definition pixel by pixel: spans shorter and longer
+// than a vector, offset ranges starting at 0 or reaching past the span, marks already set.
+TEST(FastRemoval, MarkMatchesSetsExactlyTheMatchedPixels) {
+  cv::RNG rng(47);
+  for (const int width : {5, 40, 333, 1242}) {
+    for (int trial = 0; trial < 30; ++trial) {
+      std::vector<std::uint8_t> left(static_cast<std::size_t>(width)), right(static_cast<std::size_t>(width));
+      for (int x = 0; x < width; ++x) {
+        left[static_cast<std::size_t>(x)] = rng.uniform(0, 4) == 0 ? 0 : static_cast<std::uint8_t>(rng.uniform(1, 256));
+        right[static_cast<std::size_t>(x)] = rng.uniform(0, 4) == 0 ? 0 : static_cast<std::uint8_t>(rng.uniform(1, 256));
+      }
+      const int x0 = rng.uniform(0, width);
+      const int x1 = rng.uniform(x0, width + 1);
+      const int d0 = trial % 3 == 0 ? 0 : rng.uniform(0, std::max(1, width / 2));
+      const int d1 = d0 + rng.uniform(0, 7);
+      const int tol = trial % 5 == 0 ? 0 : trial % 5 == 1 ? 255 : rng.uniform(0, 40);
+      std::vector<std::uint8_t> fast(static_cast<std::size_t>(width));
+      for (auto& m : fast) m = rng.uniform(0, 6) == 0 ? 0xFF : 0;
+      std::vector<std::uint8_t> ref = fast;
+      simd::markMatches(left.data(), right.data(), x0, x1, d0, d1, tol, fast.data());
+      for (int d = d0; d <= d1; ++d)
+        for (int x = std::max(x0, d); x < x1; ++x) {
+          const int a = left[static_cast<std::size_t>(x)], b = right[static_cast<std::size_t>(x - d)];
+          if (a != 0 && b != 0 && std::abs(a - b) <= tol) ref[static_cast<std::size_t>(x)] = 0xFF;
+        }
+      ASSERT_EQ(fast, ref) << "width " << width << ", columns " << x0 << ".." << x1 << ", offsets " << d0 << ".."
+                           << d1 << ", tolerance " << tol;
+    }
+  }
+}
+
 // The correlation split into column strips: each strip's counts as the plain kernel gives them
 // on the strip alone (zeros for a strip without features), and the row's as their sum.
 TEST(FastCorrelation, StripCountsMatchThePlainKernelStripByStrip) {
