@@ -605,15 +605,17 @@ template <int H>
 // it is computed, with no q rows (their set-up costs more than a short span's vectors). Requires
 // x1 - x0 >= kLanes and every window pixel inside the row with a right pixel at every offset:
 // x0 - H - d1 >= 0, x1 + H <= width. Per pixel the same test as windowGroup.
-constexpr int kFusedMaxSpan = 128;  // beyond it the q rows' two passes are cheaper
+constexpr int kFusedMaxSpan = 256;  // beyond it the q rows' two passes are cheaper
 constexpr int kFusedMaxOffsets = 8;
 [[gnu::always_inline]] inline bool fusedWindowApplies(int width, int x0, int x1, int d0, int d1, int half) {
   return (half == 0 || half == 1) && d0 >= 0 && d1 >= d0 && d1 - d0 < kFusedMaxOffsets && x1 - x0 >= kLanes &&
          x1 - x0 <= kFusedMaxSpan && x0 - half - d1 >= 0 && x1 + half <= width;
 }
-template <int H>
+// N > 0: the number of offsets d1 - d0 + 1 known at compile time (the loop over them unrolled).
+template <int H, int N>
 [[gnu::always_inline]] inline void fusedWindow(const std::uint8_t* left, const std::uint8_t* right, int x0, int x1,
                                                int d0, int d1, int tol, std::uint8_t* out) {
+  if constexpr (N > 0) d1 = d0 + N - 1;
   const U8x32 vtol = splatFromTable(tol);  // tol in [0, 255]
   const U8x32 one = splat(1);
   const U8x32 zero{};
@@ -640,8 +642,13 @@ template <int H>
                                                    std::uint8_t* scratch, std::uint8_t* out) {
   if (x1 <= x0) return;
   if (fusedWindowApplies(width, x0, x1, d0, d1, half)) {
-    if (half == 1) fusedWindow<1>(left, right, x0, x1, d0, d1, tol, out);
-    else fusedWindow<0>(left, right, x0, x1, d0, d1, tol, out);
+    // The candidates' three offsets (+-1) and the sweeps' five (+-2) unrolled.
+    const int n = d1 - d0 + 1;
+    if (half == 1 && n == 3) fusedWindow<1, 3>(left, right, x0, x1, d0, d1, tol, out);
+    else if (half == 1 && n == 5) fusedWindow<1, 5>(left, right, x0, x1, d0, d1, tol, out);
+    else if (half == 1) fusedWindow<1, 0>(left, right, x0, x1, d0, d1, tol, out);
+    else if (n == 3) fusedWindow<0, 3>(left, right, x0, x1, d0, d1, tol, out);
+    else fusedWindow<0, 0>(left, right, x0, x1, d0, d1, tol, out);
     return;
   }
   std::memset(out + x0, 0, static_cast<std::size_t>(x1 - x0));

@@ -731,8 +731,8 @@ TEST(FastObstacles, WindowMatchRowMatchesTheReferenceOnShortSpansInsideTheRow) {
       if (v != 0) v = std::clamp(v + rng.uniform(-14, 15), 1, 255);
       right[static_cast<std::size_t>(x)] = static_cast<std::uint8_t>(v);
     }
-    for (const int span : {31, 32, 33, 64, 95, 127, 128, 129}) {
-      for (const int n : {1, 3, 5, 8, 9}) {
+    for (const int span : {31, 32, 33, 64, 95, 128, 129, 255, 256, 257}) {
+      for (const int n : {1, 2, 3, 5, 8, 9}) {
         const int tol = trial % 10 == 0 ? 0 : trial % 10 == 1 ? 255 : rng.uniform(0, 30);
         const int d0 = std::max(0, shift - rng.uniform(0, 3));
         const int d1 = d0 + n - 1;
