@@ -110,12 +110,9 @@ template <int P>
 }
 
 // b matches a when b lies in [lo, hi] = [max(a - tol, 1), min(a + tol, 255)]:
-// (b - lo) mod 256 <= hi - lo. b = 0 wraps to 256 - lo > hi - lo, so non-features never match.
-[[gnu::always_inline]] inline U8x32 matchMask(U8x32 b, U8x32 lo, U8x32 width) {
-  return __builtin_convertvector((b - lo) <= width, U8x32);
-}
-
-// matchMask's range for each lane of a != 0: lo = max(a - tol, 1) and width = min(a + tol, 255) - lo,
+// (b - lo) mod 256 <= hi - lo. b = 0 wraps to 256 - lo > hi - lo, so non-features never match
+// (mismatchMask below tests the complement).
+// The range for each lane of a != 0: lo = max(a - tol, 1) and width = min(a + tol, 255) - lo,
 // with vtol = tol in every lane (for a = 0 the range is meaningless: callers mask those lanes).
 // As byte minima, which compile to single instructions: for a >= 1, max(a - tol, 1) is
 // a - min(a - 1, tol), and min(a + tol, 255) is a + min(255 - a, tol) (255 - a is ~a), so that
@@ -253,17 +250,17 @@ typedef std::int8_t S8x32 __attribute__((vector_size(32)));
   limit = width ^ 0x80;
 }
 
-// The n (at most 255) gathered feature pixels idx[0..n) matched against the right row at every
-// offset: lane j of acc[i] ends with the matches at offset dv - 1 - (kLanes * i + j), counted
-// as n minus the mismatches.
+// The n (at most 255) gathered feature pixels idx[0..n) matched against the right row at the
+// offsets first - j: lane j of acc[i] ends with the matches at offset
+// first - (kLanes * i + j), counted as n minus the mismatches.
 [[gnu::always_inline]] inline void matchGathered(const std::uint8_t* left, const std::uint8_t* right, const int* idx,
-                                                 int n, const RangeSplats& ranges, int dv, int nv, U8x32* acc) {
+                                                 int n, const RangeSplats& ranges, int first, int nv, U8x32* acc) {
   for (int k = 0; k < n; ++k) {
     const int xi = idx[k];
     const RangeSplats::Entry& range = ranges.of[left[xi]];
     const U8x32 bias = load(range.bias);
     const U8x32 limit = load(range.limit);
-    const std::uint8_t* base = right + xi - (dv - 1);
+    const std::uint8_t* base = right + xi - first;
     for (int i = 0; i < nv; ++i) acc[i] -= mismatchMask(load(base + kLanes * i), bias, limit);
   }
   const U8x32 all = splatFromTable(n);
@@ -291,7 +288,7 @@ template <int NV>
   while (x < x1) {
     // A literal nullptr lets the inlined gather drop the skip test.
     const int n = skip == nullptr ? gatherFeatures(left, nullptr, x, x1, idx) : gatherFeatures(left, skip, x, x1, idx);
-    matchGathered(left, right, idx, n, ranges, dv, nv, acc);
+    matchGathered(left, right, idx, n, ranges, dv - 1, nv, acc);
     if (n > 0) flush();
   }
 }
@@ -321,7 +318,7 @@ template <int NV>
     const int xb = std::min(x1, bounds[k + 1]);
     while (x < xb) {
       const int n = gatherFeatures(left, nullptr, x, xb, idx);
-      matchGathered(left, right, idx, n, ranges, dv, nv, acc);
+      matchGathered(left, right, idx, n, ranges, dv - 1, nv, acc);
       if (n > 0) flush();
     }
     if (first) std::fill(strip, strip + offsets, 0);
@@ -358,16 +355,11 @@ template <int NV>
   U8x32 acc{};
   // Lane j is offset d_first + kLanes - 1 - j, i.e. counts index kLanes - 1 - j.
   int idx[kMaxGather];
+  const RangeSplats& ranges = rangeSplats(tol);
   int x = std::max(x0, d_first);
   while (x < x1) {
     const int n = gatherFeatures(left, nullptr, x, x1, idx);
-    for (int k = 0; k < n; ++k) {
-      const int xi = idx[k];
-      const int a = left[xi];
-      const int lo = std::max(a - tol, 1);
-      const int hi = std::min(a + tol, 255);
-      acc -= matchMask(load(right + xi - d_first - (kLanes - 1)), splatFromTable(lo), splatFromTable(hi - lo));
-    }
+    matchGathered(left, right, idx, n, ranges, d_first + kLanes - 1, 1, &acc);
     if (n > 0) flushLanes(acc, kLanes - 1, count, counts);
   }
 }
