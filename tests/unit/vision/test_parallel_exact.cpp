@@ -654,6 +654,21 @@ TEST(FastObstacles, AddBytesToBytesMatchesTheScalarSumModulo256) {
   }
 }
 
+// The right row of a left feature row seen at offset `shift`: its grey values with noise of
+// +-14, and with `occlusions` one pixel in 20 replaced by any value (occlusions, aliasing).
+void shiftedRightRow(cv::RNG& rng, const std::vector<std::uint8_t>& left, int shift, bool occlusions,
+                     std::vector<std::uint8_t>& right) {
+  const int width = static_cast<int>(left.size());
+  right.assign(left.size(), 0);
+  for (int x = 0; x < width; ++x) {
+    const int src = x + shift;
+    int v = src < width ? left[static_cast<std::size_t>(src)] : 0;
+    if (v != 0) v = std::clamp(v + rng.uniform(-14, 15), 1, 255);
+    if (occlusions && rng.uniform(0, 20) == 0) v = rng.uniform(0, 256);
+    right[static_cast<std::size_t>(x)] = static_cast<std::uint8_t>(v);
+  }
+}
+
 // The window kernel and its reference on one row, columns [x0, x1); `ref` gets the reference's
 // row. Columns outside [x0, x1) must stay untouched by both.
 ::testing::AssertionResult windowMatchAgrees(const std::vector<std::uint8_t>& left,
@@ -679,14 +694,7 @@ TEST(FastObstacles, WindowMatchRowMatchesTheReferenceForAnyOffsetsWindowAndSpan)
     for (int trial = 0; trial < 6; ++trial) {
       randomFeatureRow(rng, width, left);
       const int shift = rng.uniform(0, std::max(1, width / 3));
-      right.assign(static_cast<std::size_t>(width), 0);
-      for (int x = 0; x < width; ++x) {
-        const int src = x + shift;
-        int v = src < width ? left[static_cast<std::size_t>(src)] : 0;
-        if (v != 0) v = std::clamp(v + rng.uniform(-14, 15), 1, 255);
-        if (rng.uniform(0, 20) == 0) v = rng.uniform(0, 256);  // occlusions, aliasing
-        right[static_cast<std::size_t>(x)] = static_cast<std::uint8_t>(v);
-      }
+      shiftedRightRow(rng, left, shift, true, right);
       for (const int half : {0, 1, 2, 8}) {
         const int tol = rng.uniform(0, 30);
         const int d0 = shift - rng.uniform(-2, 4);
@@ -724,13 +732,7 @@ TEST(FastObstacles, WindowMatchRowMatchesTheReferenceOnShortSpansInsideTheRow) {
   for (int trial = 0; trial < 40; ++trial) {
     randomFeatureRow(rng, width, left);
     const int shift = rng.uniform(0, 60);
-    right.assign(static_cast<std::size_t>(width), 0);
-    for (int x = 0; x < width; ++x) {
-      const int src = x + shift;
-      int v = src < width ? left[static_cast<std::size_t>(src)] : 0;
-      if (v != 0) v = std::clamp(v + rng.uniform(-14, 15), 1, 255);
-      right[static_cast<std::size_t>(x)] = static_cast<std::uint8_t>(v);
-    }
+    shiftedRightRow(rng, left, shift, false, right);
     for (const int span : {31, 32, 33, 64, 95, 128, 129, 255, 256, 257}) {
       for (const int n : {1, 2, 3, 5, 8, 9}) {
         const int tol = trial % 10 == 0 ? 0 : trial % 10 == 1 ? 255 : rng.uniform(0, 30);
