@@ -12,6 +12,7 @@
 
 #include "camera/calibration.hpp"
 #include "config/errors.hpp"
+#include "input_error.hpp"
 #include "temp_dir.hpp"
 
 namespace sg {
@@ -26,19 +27,7 @@ class TempDir : public test::TempDir {
   TempDir() : test::TempDir("sg_calib") {}
 };
 
-// Expects InputError whose message contains every fragment.
-template <class F>
-void expectInputError(F&& f, std::initializer_list<std::string> fragments) {
-  try {
-    f();
-    ADD_FAILURE() << "no InputError thrown";
-  } catch (const InputError& e) {
-    const std::string what = e.what();
-    for (const auto& fragment : fragments) {
-      EXPECT_NE(what.find(fragment), std::string::npos) << "'" << fragment << "' not in: " << what;
-    }
-  }
-}
+using test::expectInputError;
 
 const char* kKittiP2 =
     "P2: 7.215377e+02 0.000000e+00 6.095593e+02 4.485728e+01 0.000000e+00 7.215377e+02 1.728540e+02 "

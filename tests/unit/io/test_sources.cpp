@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "config/errors.hpp"
+#include "input_error.hpp"
 #include "temp_dir.hpp"
 #include "io/frame_source.hpp"
 #include "io/image_file.hpp"
@@ -27,18 +28,7 @@ class TempDir : public test::TempDir {
   TempDir() : test::TempDir("sg_sources") {}
 };
 
-template <class F>
-void expectInputError(F&& f, std::initializer_list<std::string> fragments) {
-  try {
-    f();
-    ADD_FAILURE() << "no InputError thrown";
-  } catch (const InputError& e) {
-    const std::string what = e.what();
-    for (const auto& fragment : fragments) {
-      EXPECT_NE(what.find(fragment), std::string::npos) << "'" << fragment << "' not in: " << what;
-    }
-  }
-}
+using test::expectInputError;
 
 cv::Mat texture(cv::Size size, int seed) {
   cv::Mat img(size, CV_8UC1);
