@@ -912,7 +912,6 @@ template <int kFloats>
   return best;
 }
 
-typedef std::uint8_t U8x16 __attribute__((vector_size(16)));
 [[gnu::always_inline]] inline void addBytesImpl(const std::uint8_t* bytes, std::uint16_t* sums, int n) {
   int i = 0;
   for (; i + 16 <= n; i += 16) {

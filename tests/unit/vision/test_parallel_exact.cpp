@@ -576,11 +576,9 @@ TEST(FastRemoval, MarkMatchesSetsExactlyTheMatchedPixels) {
   cv::RNG rng(47);
   for (const int width : {5, 40, 333, 1242}) {
     for (int trial = 0; trial < 30; ++trial) {
-      std::vector<std::uint8_t> left(static_cast<std::size_t>(width)), right(static_cast<std::size_t>(width));
-      for (int x = 0; x < width; ++x) {
-        left[static_cast<std::size_t>(x)] = rng.uniform(0, 4) == 0 ? 0 : static_cast<std::uint8_t>(rng.uniform(1, 256));
-        right[static_cast<std::size_t>(x)] = rng.uniform(0, 4) == 0 ? 0 : static_cast<std::uint8_t>(rng.uniform(1, 256));
-      }
+      std::vector<std::uint8_t> left, right;
+      randomFeatureRow(rng, width, left);
+      randomFeatureRow(rng, width, right);
       const int x0 = rng.uniform(0, width);
       const int x1 = rng.uniform(x0, width + 1);
       const int d0 = trial % 3 == 0 ? 0 : rng.uniform(0, std::max(1, width / 2));
