@@ -66,6 +66,8 @@ class Detector {
   const DetectorParams& params() const { return params_; }
   // People-detector (HOG) evaluations since construction: about one per shape-validated box.
   long hogDetectCalls() const { return localizer_.hogDetectCalls(); }
+  // Diagnostics: Segmenter::setRemovalExemptions.
+  void setRemovalExemptions(const cv::Mat* object_ids) { segmenter_.setRemovalExemptions(object_ids); }
 
  private:
   DetectorParams params_;

@@ -81,6 +81,7 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
     remover_.compute(left_features, right_features, out.ground, remaining_, out.labels, changed_rows_);
   else
     remover_.computeReference(left_features, right_features, out.ground, remaining_, out.labels, changed_rows_);
+  if (removal_exemptions_ != nullptr) restoreExempted(left_features, out.labels);
   // The correlation after removal: only the rows that lost features change, and on
   // those the removed pixels are counted out (or the remaining ones counted afresh).
   out.correlation_initial.copyTo(out.correlation_after_removal);
@@ -103,6 +104,24 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
   obstacles_.dropRemnants(out.labels, out.obstacles);
   out.timing_ms["obstacles"] = msSince(t);
   out.timing_ms["total"] = msSince(start);
+}
+
+void Segmenter::restoreExempted(const cv::Mat& left_features, cv::Mat& labels) {
+  const cv::Mat& ids = *removal_exemptions_;
+  if (ids.type() != CV_16UC1 || ids.size() != left_features.size())
+    throw InputError("segmentation: removal exemptions must be CV_16UC1 of the images' size");
+  for (int y = 0; y < left_features.rows; ++y) {
+    const auto* id = ids.ptr<std::uint16_t>(y);
+    const auto* feature = left_features.ptr<std::uint8_t>(y);
+    auto* label = labels.ptr<std::uint8_t>(y);
+    auto* remaining = remaining_.ptr<std::uint8_t>(y);
+    for (int x = 0; x < left_features.cols; ++x) {
+      if (id[x] < 2 || (label[x] != kLabelGround && label[x] != kLabelBackground)) continue;
+      label[x] = kLabelUnassigned;
+      remaining[x] = feature[x];
+      changed_rows_[static_cast<std::size_t>(y)] = 1;
+    }
+  }
 }
 
 void segmentPair(FeatureExtractor& features, Segmenter& segmenter, const cv::Mat& left, const cv::Mat& right,

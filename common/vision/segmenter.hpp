@@ -55,6 +55,13 @@ class Segmenter {
 
   const SegmenterParams& params() const { return params_; }
 
+  // Diagnostics (the probes' ceiling studies, never the services): with a CV_16UC1 map of
+  // the same size as the images, the feature pixels whose value there is >= 2 (the
+  // synthetic scenes' object ids, SceneTruth::object_id) are never removed as ground or
+  // background, as a removal without chance matches would do. The map must outlive the
+  // calls; nullptr (the default) turns it off.
+  void setRemovalExemptions(const cv::Mat* object_ids) { removal_exemptions_ = object_ids; }
+
  private:
   friend void segmentPair(FeatureExtractor&, Segmenter&, const cv::Mat&, const cv::Mat&, const StereoRig&,
                           SegmentationResult&);
@@ -62,6 +69,8 @@ class Segmenter {
   // is erased and re-created per frame).
   void run(const cv::Mat& left_features, const cv::Mat& right_features, const StereoRig& rig,
            SegmentationResult& out);
+  // Gives the exempted feature pixels the removal took back to the obstacle stage.
+  void restoreExempted(const cv::Mat& left_features, cv::Mat& labels);
 
   SegmenterParams params_;
   Correlator correlator_;
@@ -75,6 +84,7 @@ class Segmenter {
   cv::Mat matches_;                   // CV_32S companion of the correlation
   cv::Mat obstacle_score_;            // correlation while obstacles are taken out
   std::vector<std::uint8_t> changed_rows_;
+  const cv::Mat* removal_exemptions_ = nullptr;
 };
 
 // Feature images of both images, then the segmentation; adds timing_ms["features"]

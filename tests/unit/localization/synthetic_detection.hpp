@@ -13,10 +13,13 @@ struct SeedDetection {
   DetectionResult result;
 };
 
-inline SeedDetection detectSyntheticSeed(Detector& detector, std::uint64_t seed) {
+// exempt_objects: the removal never takes the objects' features (Segmenter::setRemovalExemptions).
+inline SeedDetection detectSyntheticSeed(Detector& detector, std::uint64_t seed, bool exempt_objects = false) {
   SeedDetection out{renderSyntheticScene(randomSceneParams(seed), seed), {}};
   detector.reset();
+  detector.setRemovalExemptions(exempt_objects ? &out.pair.truth->object_id : nullptr);
   detector.compute(out.pair.left, out.pair.right, out.pair.rig, 0.0, out.result);
+  detector.setRemovalExemptions(nullptr);
   return out;
 }
 

@@ -58,6 +58,8 @@ int main(int argc, char** argv) {
     if (const char* v = std::getenv("RANGE")) sgp.obstacles.max_range_m = std::atof(v);
     Segmenter seg(sgp);
     SegmentationResult r;
+    // EXEMPT=1: a removal that never takes an object's features (the ceiling of a better removal).
+    if (std::getenv("EXEMPT")) seg.setRemovalExemptions(&pair.truth->object_id);
     segmentPair(fx, seg, pair.left, pair.right, pair.rig, r);
     const SceneTruth& t = *pair.truth;
     // Left pixels the right camera sees too: on its row, no left pixel with a larger disparity

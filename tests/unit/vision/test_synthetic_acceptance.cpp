@@ -4,9 +4,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include <gtest/gtest.h>
 
+#include "config/errors.hpp"
 #include "io/synthetic_scene.hpp"
 #include "test_helpers.hpp"
 #include "vision/segmenter.hpp"
@@ -181,6 +183,60 @@ TEST(SyntheticGround, BackgroundBelowATiltedHorizonIsRemoved) {
   const double without = backgroundLeftBelowTheHorizon(off);
   EXPECT_LE(with, 0.05);
   EXPECT_GE(without, 0.15);
+}
+
+// The probes' ceiling study (a removal without chance matches): with the truth's object
+// ids as exemptions no object feature is labelled ground or background, the ground and
+// background are removed as before, and a map of the wrong size is refused by name.
+TEST(SyntheticObstacles, RemovalExemptionsKeepEveryObjectFeature) {
+  const StereoPair pair = renderSyntheticScene(randomSceneParams(44), 44);
+  const SceneTruth& t = *pair.truth;
+  struct Counts {
+    int object_features = 0, object_removed = 0, scenery_features = 0, scenery_removed = 0;
+  };
+  auto count = [&](bool exempt) {
+    FeatureExtractor fx;
+    Segmenter seg;
+    if (exempt) seg.setRemovalExemptions(&t.object_id);
+    SegmentationResult r;
+    segmentPair(fx, seg, pair.left, pair.right, pair.rig, r);
+    Counts c;
+    for (int y = 0; y < r.labels.rows; ++y)
+      for (int x = 0; x < r.labels.cols; ++x) {
+        const int label = r.labels.at<std::uint8_t>(y, x);
+        if (label == kLabelNone) continue;
+        const bool removed = label == kLabelGround || label == kLabelBackground;
+        if (t.object_id.at<std::uint16_t>(y, x) >= 2) {
+          ++c.object_features;
+          c.object_removed += removed;
+        } else {
+          ++c.scenery_features;
+          c.scenery_removed += removed;
+        }
+      }
+    return c;
+  };
+  const Counts plain = count(false), exempt = count(true);
+  std::printf("object features removed: %d of %d plain, %d of %d exempt; scenery removed %d / %d\n",
+              plain.object_removed, plain.object_features, exempt.object_removed, exempt.object_features,
+              plain.scenery_removed, exempt.scenery_removed);
+  ASSERT_GT(plain.object_features, 1000);
+  EXPECT_GT(plain.object_removed, plain.object_features / 10);  // the chance matches the study removes
+  EXPECT_EQ(exempt.object_removed, 0);
+  EXPECT_EQ(exempt.object_features, plain.object_features);
+  EXPECT_EQ(exempt.scenery_removed, plain.scenery_removed);
+
+  const cv::Mat wrong(10, 10, CV_16UC1, cv::Scalar(0));
+  FeatureExtractor fx;
+  Segmenter seg;
+  seg.setRemovalExemptions(&wrong);
+  SegmentationResult r;
+  try {
+    segmentPair(fx, seg, pair.left, pair.right, pair.rig, r);
+    ADD_FAILURE() << "a map of the wrong size was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("removal exemptions"), std::string::npos) << e.what();
+  }
 }
 
 // People 25-35 m away show ~30-45 rows of a narrow outline: often fewer matched
