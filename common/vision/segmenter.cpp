@@ -41,6 +41,9 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
   if (left_features.empty() || left_features.type() != CV_8UC1 || right_features.type() != CV_8UC1 ||
       left_features.size() != right_features.size())
     throw InputError("segmentation: feature images must be non-empty mono8 of the same size");
+  if (removal_exemptions_ != nullptr &&
+      (removal_exemptions_->type() != CV_16UC1 || removal_exemptions_->size() != left_features.size()))
+    throw InputError("segmentation: removal exemptions must be CV_16UC1 of the images' size");
   const auto start = Clock::now();
   // segmentPair computes the features straight into `out`: no copy then.
   if (left_features.data != out.left_features.data) left_features.copyTo(out.left_features);
@@ -108,8 +111,6 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
 
 void Segmenter::restoreExempted(const cv::Mat& left_features, cv::Mat& labels) {
   const cv::Mat& ids = *removal_exemptions_;
-  if (ids.type() != CV_16UC1 || ids.size() != left_features.size())
-    throw InputError("segmentation: removal exemptions must be CV_16UC1 of the images' size");
   for (int y = 0; y < left_features.rows; ++y) {
     const auto* id = ids.ptr<std::uint16_t>(y);
     const auto* feature = left_features.ptr<std::uint8_t>(y);
