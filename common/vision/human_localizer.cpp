@@ -442,8 +442,10 @@ bool HumanLocalizer::refineOffset(const cv::Mat& left, const cv::Mat& right, con
   return refineOffset(workspace(0), left, right, box, mask, offset_px, zncc);
 }
 
-float HumanLocalizer::shapeScore(const cv::Mat& left, const cv::Rect2f& box) {
-  return shapeScore(workspace(0), left, box);
+float HumanLocalizer::shapeScore(const cv::Mat& left, const cv::Rect2f& box, const cv::Mat& labels) {
+  if (!labels.empty() && (labels.size() != left.size() || labels.type() != CV_8UC1))
+    throw InputError("localizer: shape labels must be CV_8UC1 of the left image's size");
+  return shapeScore(workspace(0), left, labels, box);
 }
 
 bool HumanLocalizer::refineOffset(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& right, const cv::Rect& box,
@@ -564,20 +566,22 @@ bool HumanLocalizer::refineOffset(BoxWorkspace& ws, const cv::Mat& left, const c
   return true;
 }
 
-float HumanLocalizer::shapeScore(BoxWorkspace& ws, const cv::Mat& left, const cv::Rect2f& box) const {
+float HumanLocalizer::shapeScore(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& labels,
+                                 const cv::Rect2f& box) const {
   const auto& sp = params_.shape;
-  const float first = shapeScoreAt(ws, left, box, sp.person_height_fraction);
+  const float first = shapeScoreAt(ws, left, labels, box, sp.person_height_fraction);
   // Where the margin leaves the decision open, the person may fill the window less or more
   // than the box says (a box cut at the head or stretched to the ground): the best margin counts.
   if (static_cast<double>(first) < sp.rescale_margin_min || static_cast<double>(first) > sp.rescale_margin_max)
     return first;
   float best = first;
   for (const double f : {sp.smaller_person_fraction, sp.larger_person_fraction})
-    if (f > 0.0) best = std::max(best, shapeScoreAt(ws, left, box, f));
+    if (f > 0.0) best = std::max(best, shapeScoreAt(ws, left, labels, box, f));
   return best;
 }
 
-float HumanLocalizer::shapeScoreAt(BoxWorkspace& ws, const cv::Mat& left, const cv::Rect2f& box, double frac) const {
+float HumanLocalizer::shapeScoreAt(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& labels,
+                                   const cv::Rect2f& box, double frac) const {
   if (box.height < 4.0f || box.width < 1.0f) return static_cast<float>(kNoShape);
   const cv::Size win = ws.hog.winSize;
   const int shift = params_.shape.shift_cells * kHogCellPx;
@@ -596,11 +600,26 @@ float HumanLocalizer::shapeScoreAt(BoxWorkspace& ws, const cv::Mat& left, const 
   cv::Mat patch = scratchMat(ws.patch_store, crop.height, crop.width, CV_8UC1);
   cv::copyMakeBorder(left(inside), patch, inside.y - crop.y, crop.y + crop.height - inside.y - inside.height,
                      inside.x - crop.x, crop.x + crop.width - inside.x - inside.width, cv::BORDER_REPLICATE);
+  if (params_.shape.flatten_px > 1 && !labels.empty()) flattenClutter(ws, labels, crop, inside, patch);
   cv::resize(patch, ws.hog_canvas, canvas, 0, 0, s > 1.0 ? cv::INTER_AREA : cv::INTER_LINEAR);
   ws.hog.detect(ws.hog_canvas, ws.hog_found, ws.hog_weights, -1e9, cv::Size(kHogCellPx, kHogCellPx), cv::Size(0, 0));
   ++ws.hog_calls;
   if (ws.hog_weights.empty()) return static_cast<float>(kNoShape);
   return static_cast<float>(*std::max_element(ws.hog_weights.begin(), ws.hog_weights.end()));
+}
+
+void HumanLocalizer::flattenClutter(BoxWorkspace& ws, const cv::Mat& labels, const cv::Rect& crop,
+                                    const cv::Rect& inside, cv::Mat& patch) const {
+  const int k = params_.shape.flatten_px;
+  cv::Mat flat = scratchMat(ws.flat_store, patch.rows, patch.cols, CV_8UC1);
+  cv::boxFilter(patch, flat, CV_8U, cv::Size(k, k), cv::Point(-1, -1), true, cv::BORDER_REPLICATE);
+  for (int y = inside.y; y < inside.y + inside.height; ++y) {
+    const std::uint8_t* l = labels.ptr<std::uint8_t>(y) + inside.x;
+    std::uint8_t* p = patch.ptr<std::uint8_t>(y - crop.y) + (inside.x - crop.x);
+    const std::uint8_t* f = flat.ptr<std::uint8_t>(y - crop.y) + (inside.x - crop.x);
+    for (int x = 0; x < inside.width; ++x)
+      if (l[x] == kLabelGround || l[x] == kLabelBackground) p[x] = f[x];
+  }
 }
 
 bool HumanLocalizer::validateCandidate(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& right,
@@ -674,7 +693,8 @@ bool HumanLocalizer::validateCandidate(BoxWorkspace& ws, const cv::Mat& left, co
   h.position_m = p.cast<float>();
 
   // Step 5: shape validation and the calibrated score.
-  h.shape_score = params_.shape.enabled ? shapeScore(ws, left, h.box) : 0.0f;
+  const cv::Mat no_labels;
+  h.shape_score = params_.shape.enabled ? shapeScore(ws, left, labelled ? segmentation.labels : no_labels, h.box) : 0.0f;
   h.score = static_cast<float>(combinedScore(static_cast<double>(h.symmetry), static_cast<double>(h.shape_score)));
   if (static_cast<double>(h.score) < params_.score.min_score) return false;
   const cv::Rect image(0, 0, left.cols, left.rows);

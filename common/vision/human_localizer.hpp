@@ -126,6 +126,9 @@ struct ShapeParams {
   double larger_person_fraction = 0.85;
   double rescale_margin_min = -2.0;
   double rescale_margin_max = 0.0;
+  // Clutter flattened before the window is read: image pixels the segmentation labelled
+  // ground or background are replaced by their flatten_px x flatten_px box mean (0: off).
+  int flatten_px = 5;
 
   template <class V>
   void visit(V& v) {
@@ -141,6 +144,9 @@ struct ShapeParams {
     v.field("rescale_margin_min", rescale_margin_min, -100.0, 100.0, "",
             "the other shares are tried when the first margin is at least this ...");
     v.field("rescale_margin_max", rescale_margin_max, -100.0, 100.0, "", "... and at most this");
+    v.field("flatten_px", flatten_px, 0, 31, "pixels",
+            "ground and background feature pixels inside the window are replaced by their box mean of this size "
+            "before HOG reads it (0: the image as it is)");
   }
 };
 
@@ -148,9 +154,9 @@ struct ShapeParams {
 // Defaults fitted by `stereoguard evaluate --fit-score` on synthetic seeds 0-79
 // (config/localization.yaml says how); the tests score seeds from 1000 on.
 struct ScoreParams {
-  double bias = 1.157;
-  double w_symmetry = 0.364;
-  double w_shape = 2.111;
+  double bias = 1.074;
+  double w_symmetry = 0.655;
+  double w_shape = 2.081;
   double min_score = 0.5;   // detections below are dropped
 
   template <class V>
@@ -216,7 +222,9 @@ class HumanLocalizer {
                     float& offset_px, float& zncc);
 
   // Step 5 on its own: HOG margin of the person in `box` (larger = more person-like).
-  float shapeScore(const cv::Mat& left, const cv::Rect2f& box);
+  // `labels` (CV_8UC1 SegmentLabel per pixel, may be empty) marks the clutter that
+  // shape.flatten_px flattens.
+  float shapeScore(const cv::Mat& left, const cv::Rect2f& box, const cv::Mat& labels = cv::Mat());
 
   // Logistic combination of the two cues.
   double combinedScore(double symmetry, double shape_score) const;
@@ -238,7 +246,8 @@ class HumanLocalizer {
     std::vector<cv::Point> samples_p;
     std::vector<double> scores;
     // Storage behind the per-box headers; it only grows.
-    std::vector<double> labels_mask_store, box_weights_store, box_mask_store, patch_store;
+    std::vector<double> labels_mask_store, box_weights_store, box_mask_store, patch_store,
+        flat_store;
   };
 
   // Bands to use now: 1 unless params.parallel, else TBB's parallelism limit (at most kMaxBands).
@@ -247,8 +256,13 @@ class HumanLocalizer {
   bool refineOffset(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& right, const cv::Rect& box,
                     const cv::Mat& mask, float& offset_px, float& zncc) const;
   // HOG margin with the person filling `frac` of the window height.
-  float shapeScoreAt(BoxWorkspace& ws, const cv::Mat& left, const cv::Rect2f& box, double frac) const;
-  float shapeScore(BoxWorkspace& ws, const cv::Mat& left, const cv::Rect2f& box) const;
+  float shapeScoreAt(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& labels, const cv::Rect2f& box,
+                     double frac) const;
+  float shapeScore(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& labels, const cv::Rect2f& box) const;
+  // patch (the image over `crop`, replicated outside it) gets the box mean of
+  // shape.flatten_px wherever labels, inside the image (`inside`), say ground or background.
+  void flattenClutter(BoxWorkspace& ws, const cv::Mat& labels, const cv::Rect& crop, const cv::Rect& inside,
+                      cv::Mat& patch) const;
   // Steps 3-5 on candidate h (refined offset, ground contact, distance, shape
   // score); false when it is dropped.
   bool validateCandidate(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,

@@ -231,3 +231,60 @@ TEST(LocalizerParams, OutOfRangeFieldIsNamed) {
 
 }  // namespace
 }  // namespace sg
+
+namespace sg {
+namespace {
+
+// Labels for the figure scene: the figure's pixels `figure`, the rest `rest`.
+cv::Mat figureLabels(const test::FigureScene& scene, std::uint8_t figure, std::uint8_t rest) {
+  cv::Mat labels(scene.left.size(), CV_8UC1, cv::Scalar(rest));
+  labels.setTo(cv::Scalar(figure), scene.figure_id > 0);
+  return labels;
+}
+
+TEST(ShapeScore, FlatteningActsOnlyOnClutterInsideTheWindow) {
+  const auto scene = test::renderFigureScene({test::Figure{320.0, 30.0, 1.8, true, 5}});
+  const cv::Rect2f box(scene.figure_boxes[0]);
+  HumanLocalizer localizer(stepParams());
+  const float plain = localizer.shapeScore(scene.left, box);
+  const std::uint8_t obstacle = kLabelFirstObstacle;
+  // Nothing labelled clutter: the window is the image as it is, to the bit.
+  EXPECT_EQ(localizer.shapeScore(scene.left, box, figureLabels(scene, obstacle, kLabelUnassigned)), plain);
+  EXPECT_EQ(localizer.shapeScore(scene.left, box, figureLabels(scene, obstacle, kLabelNone)), plain);
+  // Clutter only well outside the window (the box and one box size around it) is not read.
+  cv::Mat far_clutter(scene.left.size(), CV_8UC1, cv::Scalar(kLabelGround));
+  const cv::Rect around(scene.figure_boxes[0].x - scene.figure_boxes[0].width,
+                        scene.figure_boxes[0].y - scene.figure_boxes[0].height / 2, 3 * scene.figure_boxes[0].width,
+                        2 * scene.figure_boxes[0].height);
+  far_clutter(around & cv::Rect(cv::Point(0, 0), scene.left.size())).setTo(cv::Scalar(obstacle));
+  EXPECT_EQ(localizer.shapeScore(scene.left, box, far_clutter), plain);
+  // Clutter inside the window is smoothed before HOG reads it: the margin moves.
+  for (const std::uint8_t clutter : {std::uint8_t{kLabelGround}, std::uint8_t{kLabelBackground}}) {
+    EXPECT_NE(localizer.shapeScore(scene.left, box, figureLabels(scene, obstacle, clutter)), plain)
+        << "label " << int(clutter);
+    EXPECT_NE(localizer.shapeScore(scene.left, box, figureLabels(scene, clutter, obstacle)), plain)
+        << "label " << int(clutter);
+  }
+}
+
+TEST(ShapeScore, FlatteningOffIgnoresLabels) {
+  const auto scene = test::renderFigureScene({test::Figure{320.0, 30.0, 1.8, true, 5}});
+  const cv::Rect2f box(scene.figure_boxes[0]);
+  LocalizerParams p = stepParams();
+  p.shape.flatten_px = 0;
+  HumanLocalizer localizer(p);
+  EXPECT_EQ(localizer.shapeScore(scene.left, box, figureLabels(scene, kLabelGround, kLabelGround)),
+            localizer.shapeScore(scene.left, box));
+}
+
+TEST(ShapeScore, LabelsOfAnotherSizeAreAnInputError) {
+  const auto scene = test::renderFigureScene({test::Figure{320.0, 30.0, 1.8, true, 5}});
+  HumanLocalizer localizer(stepParams());
+  const cv::Mat small(scene.left.rows - 1, scene.left.cols, CV_8UC1, cv::Scalar(kLabelGround));
+  EXPECT_THROW(localizer.shapeScore(scene.left, cv::Rect2f(scene.figure_boxes[0]), small), InputError);
+  const cv::Mat wide(scene.left.size(), CV_16UC1, cv::Scalar(kLabelGround));
+  EXPECT_THROW(localizer.shapeScore(scene.left, cv::Rect2f(scene.figure_boxes[0]), wide), InputError);
+}
+
+}  // namespace
+}  // namespace sg
