@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <utility>
 #include <limits>
 
@@ -600,7 +601,8 @@ float HumanLocalizer::shapeScoreAt(BoxWorkspace& ws, const cv::Mat& left, const 
   cv::Mat patch = scratchMat(ws.patch_store, crop.height, crop.width, CV_8UC1);
   cv::copyMakeBorder(left(inside), patch, inside.y - crop.y, crop.y + crop.height - inside.y - inside.height,
                      inside.x - crop.x, crop.x + crop.width - inside.x - inside.width, cv::BORDER_REPLICATE);
-  if (params_.shape.flatten_px > 1 && !labels.empty()) flattenClutter(ws, labels, crop, inside, patch);
+  if (params_.shape.flatten_px > 1 && !labels.empty())
+    flattenClutter(patch, labels(inside), inside.tl() - crop.tl(), params_.shape.flatten_px, ws.flat_store);
   cv::resize(patch, ws.hog_canvas, canvas, 0, 0, s > 1.0 ? cv::INTER_AREA : cv::INTER_LINEAR);
   ws.hog.detect(ws.hog_canvas, ws.hog_found, ws.hog_weights, -1e9, cv::Size(kHogCellPx, kHogCellPx), cv::Size(0, 0));
   ++ws.hog_calls;
@@ -608,17 +610,34 @@ float HumanLocalizer::shapeScoreAt(BoxWorkspace& ws, const cv::Mat& left, const 
   return static_cast<float>(*std::max_element(ws.hog_weights.begin(), ws.hog_weights.end()));
 }
 
-void HumanLocalizer::flattenClutter(BoxWorkspace& ws, const cv::Mat& labels, const cv::Rect& crop,
-                                    const cv::Rect& inside, cv::Mat& patch) const {
-  const int k = params_.shape.flatten_px;
-  cv::Mat flat = scratchMat(ws.flat_store, patch.rows, patch.cols, CV_8UC1);
-  cv::boxFilter(patch, flat, CV_8U, cv::Size(k, k), cv::Point(-1, -1), true, cv::BORDER_REPLICATE);
-  for (int y = inside.y; y < inside.y + inside.height; ++y) {
-    const std::uint8_t* l = labels.ptr<std::uint8_t>(y) + inside.x;
-    std::uint8_t* p = patch.ptr<std::uint8_t>(y - crop.y) + (inside.x - crop.x);
-    const std::uint8_t* f = flat.ptr<std::uint8_t>(y - crop.y) + (inside.x - crop.x);
-    for (int x = 0; x < inside.width; ++x)
-      if (l[x] == kLabelGround || l[x] == kLabelBackground) p[x] = f[x];
+void flattenClutter(cv::Mat& patch, const cv::Mat& labels, cv::Point at, int k, std::vector<double>& scratch) {
+  // Row sums of the original patch first, so the writes never feed later means; plain
+  // integer sums instead of cv::boxFilter, which allocates its filter engine per call.
+  const int before = k / 2, after = k - 1 - k / 2;
+  const int rows = patch.rows, cols = patch.cols;
+  cv::Mat sums = scratchMat(scratch, rows, cols, CV_32SC1);
+  for (int y = 0; y < rows; ++y) {
+    const std::uint8_t* p = patch.ptr<std::uint8_t>(y);
+    std::int32_t* out = sums.ptr<std::int32_t>(y);
+    std::int32_t run = 0;
+    for (int d = -before; d <= after; ++d) run += p[std::clamp(d, 0, cols - 1)];
+    for (int x = 0; x < cols; ++x) {
+      out[x] = run;
+      run += p[std::min(x + after + 1, cols - 1)] - p[std::max(x - before, 0)];
+    }
+  }
+  const std::int32_t area = k * k;
+  for (int y = 0; y < labels.rows; ++y) {
+    const int py = y + at.y;
+    const std::uint8_t* l = labels.ptr<std::uint8_t>(y);
+    std::uint8_t* p = patch.ptr<std::uint8_t>(py);
+    for (int x = 0; x < labels.cols; ++x) {
+      if (l[x] != kLabelGround && l[x] != kLabelBackground) continue;
+      const int px = x + at.x;
+      std::int32_t sum = 0;
+      for (int d = -before; d <= after; ++d) sum += sums.at<std::int32_t>(std::clamp(py + d, 0, rows - 1), px);
+      p[px] = static_cast<std::uint8_t>((sum + area / 2) / area);
+    }
   }
 }
 

@@ -157,7 +157,7 @@ struct ScoreParams {
   double bias = 1.074;
   double w_symmetry = 0.655;
   double w_shape = 2.081;
-  double min_score = 0.5;   // detections below are dropped
+  double min_score = 0.44;  // detections below are dropped
 
   template <class V>
   void visit(V& v) {
@@ -200,6 +200,12 @@ double groundRowForOffset(const GroundProfile& ground, const StereoRig& rig, dou
 
 // Intersection over union of two boxes; 0 when either is empty.
 double boxIoU(const cv::Rect2f& a, const cv::Rect2f& b);
+
+// Shape validation's clutter flattening: every pixel of `patch` (CV_8UC1) under a
+// ground or background label gets the k x k box mean of the patch (edges replicated,
+// rounded to nearest); other pixels keep their value. `labels` (CV_8UC1) covers the
+// patch from pixel `at` on; `scratch` only grows.
+void flattenClutter(cv::Mat& patch, const cv::Mat& labels, cv::Point at, int k, std::vector<double>& scratch);
 
 class HumanLocalizer {
  public:
@@ -259,10 +265,6 @@ class HumanLocalizer {
   float shapeScoreAt(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& labels, const cv::Rect2f& box,
                      double frac) const;
   float shapeScore(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& labels, const cv::Rect2f& box) const;
-  // patch (the image over `crop`, replicated outside it) gets the box mean of
-  // shape.flatten_px wherever labels, inside the image (`inside`), say ground or background.
-  void flattenClutter(BoxWorkspace& ws, const cv::Mat& labels, const cv::Rect& crop, const cv::Rect& inside,
-                      cv::Mat& patch) const;
   // Steps 3-5 on candidate h (refined offset, ground contact, distance, shape
   // score); false when it is dropped.
   bool validateCandidate(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,

@@ -267,6 +267,35 @@ TEST(ShapeScore, FlatteningActsOnlyOnClutterInsideTheWindow) {
   }
 }
 
+TEST(ShapeScore, FlatteningIsTheBoxMeanOnClutterPixelsOnly) {
+  cv::RNG rng(11);
+  for (const int k : {3, 5, 7, 9}) {
+    cv::Mat patch(47, 33, CV_8UC1);
+    rng.fill(patch, cv::RNG::UNIFORM, 0, 256);
+    // Labels over the patch from (2, 3) on, every kind of label present.
+    cv::Mat labels(40, 29, CV_8UC1);
+    rng.fill(labels, cv::RNG::UNIFORM, kLabelNone, kLabelFirstObstacle + 2);
+    const cv::Point at(2, 3);
+    cv::Mat mean;
+    cv::boxFilter(patch, mean, CV_8U, cv::Size(k, k), cv::Point(-1, -1), true, cv::BORDER_REPLICATE);
+    cv::Mat flat = patch.clone();
+    std::vector<double> scratch;
+    flattenClutter(flat, labels, at, k, scratch);
+    int flattened = 0;
+    for (int y = 0; y < patch.rows; ++y)
+      for (int x = 0; x < patch.cols; ++x) {
+        const cv::Point l(x - at.x, y - at.y);
+        const bool inside = l.x >= 0 && l.y >= 0 && l.x < labels.cols && l.y < labels.rows;
+        const int label = inside ? labels.at<std::uint8_t>(l) : -1;
+        const bool clutter = label == kLabelGround || label == kLabelBackground;
+        flattened += clutter;
+        ASSERT_EQ(flat.at<std::uint8_t>(y, x), clutter ? mean.at<std::uint8_t>(y, x) : patch.at<std::uint8_t>(y, x))
+            << "k " << k << " at (" << x << ", " << y << ") label " << label;
+      }
+    EXPECT_GT(flattened, labels.total() / 4);
+  }
+}
+
 TEST(ShapeScore, FlatteningOffIgnoresLabels) {
   const auto scene = test::renderFigureScene({test::Figure{320.0, 30.0, 1.8, true, 5}});
   const cv::Rect2f box(scene.figure_boxes[0]);
