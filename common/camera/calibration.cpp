@@ -51,8 +51,6 @@ std::optional<double> parseNumber(const std::string& token) {
   return value;
 }
 
-std::string sizeText(cv::Size size) { return std::to_string(size.width) + "x" + std::to_string(size.height); }
-
 std::string dims(const cv::Mat& m) { return std::to_string(m.rows) + "x" + std::to_string(m.cols); }
 
 // ---------------------------------------------------------------------------
@@ -560,6 +558,8 @@ std::string extensionLower(const std::string& path) {
 }
 
 }  // namespace
+
+std::string sizeText(cv::Size size) { return std::to_string(size.width) + "x" + std::to_string(size.height); }
 
 double readNumberFile(const std::string& path) {
   const std::string text = trim(readText(path));

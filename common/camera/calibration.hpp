@@ -68,4 +68,7 @@ StereoCalibration nominalCalibration(cv::Size image_size);
 // the file when it does not hold exactly one finite number.
 double readNumberFile(const std::string& path);
 
+// An image size as error messages print it: "WxH".
+std::string sizeText(cv::Size size);
+
 }  // namespace sg

@@ -7,10 +7,6 @@
 
 namespace sg {
 
-namespace {
-std::string sizeText(cv::Size size) { return std::to_string(size.width) + "x" + std::to_string(size.height); }
-}  // namespace
-
 Rectifier::Rectifier(StereoCalibration calib) : calib_(std::move(calib)) {
   if (!calib_.needs_rectification) return;
   if (calib_.image_size.empty()) {

@@ -8,10 +8,6 @@
 
 namespace sg {
 
-namespace {
-std::string sizeText(cv::Size size) { return std::to_string(size.width) + "x" + std::to_string(size.height); }
-}  // namespace
-
 std::optional<Mounting> folderMounting(const std::string& dir) {
   const std::filesystem::path file = std::filesystem::path(dir) / "camera_height_m";
   std::error_code ec;
