@@ -51,8 +51,8 @@ sg_ccache() { CCACHE_BASEDIR=${CCACHE_BASEDIR:-$root} CCACHE_NOHASHDIR=${CCACHE_
 
 configure_and_build() {
   local werror=OFF unity=OFF
-  # CI builds once from nothing: combined translation units (CMAKE_UNITY_BUILD) halve
-  # that; a working tree keeps one file per unit for quick rebuilds after an edit.
+  # CI builds once from nothing: combined translation units (CMAKE_UNITY_BUILD) take a
+  # third less time there; a working tree keeps one file per unit for quick rebuilds.
   [ "${CI:-}" = true ] && werror=ON unity=ON
   say "configuring $build"
   # -O2 with line tables (-g1): backtraces, perf and sanitizer reports keep file and
