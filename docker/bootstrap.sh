@@ -92,7 +92,8 @@ fuzz_smoke() {
   [ "${CI:-}" = true ] && werror=ON
   say "configuring $dir (clang, libFuzzer)"
   cmake -S "$root" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSG_WERROR="$werror" -DSG_FUZZ=ON \
-        -DSG_BUILD_BENCH=OFF -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 || return 1
+        -DSG_BUILD_BENCH=OFF -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 -DCMAKE_UNITY_BUILD=ON \
+        -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" || return 1
   sg_ccache cmake --build "$dir" -j "$jobs" --target fuzz_targets || return 1
   say "running every fuzz target for a short while"
   ctest --test-dir "$dir" -j "$jobs" -L fuzz --output-on-failure --timeout 600
