@@ -30,14 +30,17 @@ int main(int argc, char** argv) {
   DetectorParams params;
   if (const char* yaml = std::getenv("SG_PROBE_YAML")) loadParams(YAML::Load(yaml), params, "SG_PROBE_YAML");
   params.tracking = false;
-  params.localizer.score.min_score = 0.0;  // every candidate, with its score
+  // Found = IoU 0.5 with a detection at the configured threshold; the detector itself
+  // keeps every candidate, with its score.
+  const double threshold = params.localizer.score.min_score;
+  params.localizer.score.min_score = 0.0;
   Detector detector(params);
   // DUMP=FILE: one line per candidate (frame, features, best counted label at IoU 0.5 or -1,
   // whether it lies on an ignored label) for fitting scores offline.
   std::FILE* dump = std::getenv("DUMP") ? std::fopen(std::getenv("DUMP"), "w") : nullptr;
   Evaluator evaluator;
   int missed = 0, no_cluster = 0, loose = 0, low_score = 0;
-  // Per range bin of 5 m (0-5, ..., 35+): people counted and found (IoU 0.5, score 0.5).
+  // Per range bin of 5 m (0-5, ..., 35+): people counted and found (IoU 0.5, at the threshold).
   constexpr int kBins = 8;
   int bin_people[kBins] = {}, bin_found[kBins] = {};
   struct BoxSize {
@@ -79,7 +82,7 @@ int main(int argc, char** argv) {
       const double facing = std::abs(std::cos(l.rotation_y));
       ViewTally& view = views[facing > 0.7 ? 0 : facing >= 0.3 ? 1 : 2][l.location_m[2] < 15.0 ? 0 : 1];
       ++view.people;
-      if (best >= 0.5 && best_score >= 0.5) {
+      if (best >= 0.5 && best_score >= threshold) {
         ++bin_found[bin];
         ++view.found;
         continue;
@@ -129,13 +132,13 @@ int main(int argc, char** argv) {
     }
     const FrameEvaluation& fe = evaluator.addFrame(pair.id, pair.labels, toScoredBoxes(result.humans));
     for (const ScoredDetection& d : fe.detections)
-      if (d.outcome == Outcome::kFalsePositive && d.detection.score >= 0.5)
+      if (d.outcome == Outcome::kFalsePositive && d.detection.score >= threshold)
         std::printf("seed %llu FP score %.2f box [%.0f %.0f %.0f %.0f]\n", static_cast<unsigned long long>(seed),
                     d.detection.score, d.detection.box[0], d.detection.box[1], d.detection.box[2], d.detection.box[3]);
   }
   if (dump) std::fclose(dump);
   const EvaluationSummary s = evaluator.summary();
-  std::printf("found at score 0.5 by range:");
+  std::printf("found at score %.2f by range:", threshold);
   for (int b = 0; b < kBins; ++b)
     if (bin_people[b] > 0) std::printf("  %d-%s m %d/%d", 5 * b, b + 1 < kBins ? std::to_string(5 * b + 5).c_str() : "",
                                        bin_found[b], bin_people[b]);
@@ -146,7 +149,7 @@ int main(int argc, char** argv) {
       std::printf("  %d-%s m %.2f %.2f", 5 * b, b + 1 < kBins ? std::to_string(5 * b + 5).c_str() : "",
                   box_size[b].width / box_size[b].n, box_size[b].height / box_size[b].n);
   std::printf("\n");
-  std::printf("found at score 0.5 by view and range (missed: no cluster / no box / low score):\n");
+  std::printf("found at score %.2f by view and range (missed: no cluster / no box / low score):\n", threshold);
   for (int v = 0; v < 3; ++v)
     for (int r = 0; r < 2; ++r) {
       const ViewTally& t = views[v][r];
@@ -154,6 +157,6 @@ int main(int argc, char** argv) {
         std::printf("  %-10s %s %3d/%3d = %.2f  (%d / %d / %d)\n", view_names[v], r == 0 ? "< 15 m " : ">= 15 m",
                     t.found, t.people, static_cast<double>(t.found) / t.people, t.no_cluster, t.no_box, t.low_score);
     }
-  std::printf("pedestrians %d, missed at score 0.5 %d: no cluster %d, no box at IoU 0.5 %d, low score %d; recall at 0.2 FP/frame %.3f\n",
-              s.ground_truth, missed, no_cluster, loose, low_score, evaluator.recallAtFpPerFrame(0.2));
+  std::printf("pedestrians %d, missed at score %.2f %d: no cluster %d, no box at IoU 0.5 %d, low score %d; recall at 0.2 FP/frame %.3f\n",
+              s.ground_truth, threshold, missed, no_cluster, loose, low_score, evaluator.recallAtFpPerFrame(0.2));
 }
