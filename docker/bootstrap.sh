@@ -49,17 +49,21 @@ install_browser_tooling() {
 # clone anywhere reuses what another clone compiled.
 sg_ccache() { CCACHE_BASEDIR=${CCACHE_BASEDIR:-$root} CCACHE_NOHASHDIR=${CCACHE_NOHASHDIR:-true} "$@"; }
 
+# -O2 with line tables (-g1) for the main and fuzz trees: backtraces, perf and sanitizer
+# reports keep file and line, at three quarters of the compile time of full debug
+# information (-g).
+optimised_line_tables=(-DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG"
+                       -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG")
+
 configure_and_build() {
   local werror=OFF unity=OFF
-  # CI builds once from nothing: combined translation units (CMAKE_UNITY_BUILD) take a
-  # third less time there; a working tree keeps one file per unit for quick rebuilds.
+  # CI builds once from nothing, where combined translation units (CMAKE_UNITY_BUILD)
+  # pay off (with the line tables: 8.5 -> 5.7 min on 2 cores); a working tree keeps one
+  # file per unit for quick rebuilds after an edit.
   [ "${CI:-}" = true ] && werror=ON unity=ON
   say "configuring $build"
-  # -O2 with line tables (-g1): backtraces, perf and sanitizer reports keep file and
-  # line, at three quarters of the compile time of full debug information (-g).
   cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSG_WERROR="$werror" \
-        -DCMAKE_UNITY_BUILD="$unity" -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \
-        $SG_CMAKE_ARGS
+        -DCMAKE_UNITY_BUILD="$unity" "${optimised_line_tables[@]}" $SG_CMAKE_ARGS
   say "building with $jobs jobs"
   sg_ccache cmake --build "$build" -j "$jobs"
 }
@@ -93,7 +97,7 @@ fuzz_smoke() {
   say "configuring $dir (clang, libFuzzer)"
   cmake -S "$root" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSG_WERROR="$werror" -DSG_FUZZ=ON \
         -DSG_BUILD_BENCH=OFF -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 -DCMAKE_UNITY_BUILD=ON \
-        -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" || return 1
+        "${optimised_line_tables[@]}" || return 1
   sg_ccache cmake --build "$dir" -j "$jobs" --target fuzz_targets || return 1
   say "running every fuzz target for a short while"
   ctest --test-dir "$dir" -j "$jobs" -L fuzz --output-on-failure --timeout 600
