@@ -341,6 +341,9 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
     if (segmentation.labels.ptr<std::uint8_t>(iy)[ix] != kLabelUnassigned) return false;
     const int a = left.ptr<std::uint8_t>(iy)[ix];
     const std::uint8_t* r = right.ptr<std::uint8_t>(iy);
+    // Left of the offset the right camera does not see the scene: such a feature cannot be
+    // matched, and it cannot be refuted either.
+    if (cp.extent_blind_band && ix - (cluster.offset_px - 1) < 0) return true;
     for (int dd = cluster.offset_px - 1; dd <= cluster.offset_px + 1; ++dd) {
       const int xr = ix - dd;
       if (xr >= 0 && xr < right.cols && std::abs(a - static_cast<int>(r[xr])) <= cp.extent_grey_tolerance)
@@ -398,7 +401,12 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
     // axis, and growth on one side only is the background beside it (the
     // band the right camera cannot see, streaked texture).
     const int grow = std::min(c.box.x - x_left, x_right - (c.box.x + c.box.width - 1));
-    x_left = c.box.x - grow;
+    // Except at the image's left edge: when the core starts where the right camera's view
+    // starts (the cluster's offset), the symmetric core lies on the visible part of the object
+    // only, and its axis is off. The growth into the unseen band is then kept on its own.
+    const bool into_blind_band = cp.extent_blind_band && c.box.x + roi.x <= cluster.offset_px + 1 &&
+                                 x_left + roi.x < cluster.offset_px;
+    if (!into_blind_band) x_left = c.box.x - grow;
     x_right = c.box.x + c.box.width - 1 + grow;
     // Both boxes go on: the widened one replaces the core when a candidate is kept.
     HumanDetection h;

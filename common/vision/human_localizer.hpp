@@ -49,6 +49,8 @@ struct CandidateParams {
   int extent_gap_px = 2;          // edge-free columns tolerated when growing a box to the object's extent
   bool extent_unassigned_matches = true;  // unassigned features matching at the cluster's offset extend it
   int extent_grey_tolerance = 12;  // grey levels of that match (as the segmentation's)
+  bool extent_blind_band = true;   // a box at the image's left edge may grow into the columns
+                                   // the right camera cannot see at the cluster's offset
 
   template <class V>
   void visit(V& v) {
@@ -72,6 +74,9 @@ struct CandidateParams {
             "when a box is extended sideways (a walking person's legs)");
     v.field("extent_grey_tolerance", extent_grey_tolerance, 0, 255, "grey levels",
             "grey difference of that match");
+    v.field("extent_blind_band", extent_blind_band, 0, 1, "",
+            "a box touching the left band that the right camera cannot see at the cluster's offset grows into it "
+            "on its edges alone (one-sided); unassigned features there count as the cluster's");
   }
 };
 

@@ -162,6 +162,47 @@ TEST(Localizer, FindsTwoFiguresAtTheirDistances) {
   }
 }
 
+// A person at the left image edge: the columns left of the cluster's offset have no
+// counterpart in the right image, so the segmentation can put none of them in the cluster
+// (they stay unassigned) and its box starts at the offset. The detection's box reaches
+// into that band, as far as the figure's edges go.
+TEST(Localizer, BoxReachesIntoTheBandTheRightCameraCannotSee) {
+  const double offset = 30.0;
+  auto scene = test::renderFigureScene({test::Figure{36.0, offset, 1.7, true, 5}});
+  const cv::Rect truth = scene.figure_boxes[0];
+  const int blind = static_cast<int>(offset);
+  ASSERT_LT(truth.x + 5, blind);  // the figure's left part lies in the band
+  auto& seg = scene.segmentation;
+  for (int y = 0; y < seg.labels.rows; ++y)
+    for (int x = 0; x < blind; ++x)
+      if (seg.labels.at<std::uint8_t>(y, x) >= kLabelFirstObstacle) seg.labels.at<std::uint8_t>(y, x) = kLabelUnassigned;
+  ObstacleCluster& c = seg.obstacles[0];
+  c.box = cv::Rect(blind, truth.y, truth.x + truth.width - blind, truth.height);
+
+  for (const bool reach : {true, false}) {
+    LocalizerParams p = stepParams();
+    p.candidates.extent_blind_band = reach;
+    HumanLocalizer localizer(p);
+    std::vector<HumanDetection> out;
+    localizer.compute(scene.left, scene.right, scene.rig, seg, out);
+    double best = 0.0;
+    float left_edge = 1e9f;
+    for (const auto& h : out) {
+      const double iou = boxIoU(h.box, cv::Rect2f(truth));
+      if (iou > best) {
+        best = iou;
+        left_edge = h.box.x;
+      }
+    }
+    if (reach) {
+      EXPECT_GT(best, 0.8) << "truth x " << truth.x << "-" << truth.x + truth.width - 1;
+      EXPECT_LT(left_edge, static_cast<float>(blind));
+    } else {
+      EXPECT_LT(best, 0.75);  // the symmetric growth alone stops at the visible part's axis
+    }
+  }
+}
+
 TEST(Localizer, EmptySegmentationGivesNoDetection) {
   const auto scene = test::renderFigureScene({});
   HumanLocalizer localizer(stepParams());
