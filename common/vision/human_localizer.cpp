@@ -1,6 +1,7 @@
 #include "vision/human_localizer.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <utility>
@@ -225,16 +226,28 @@ double HumanLocalizer::combinedScore(double symmetry, double shape_score) const 
   return 1.0 / (1.0 + std::exp(-t));
 }
 
-double HumanLocalizer::foreignShare(const SegmentationResult& segmentation, const cv::Rect& box, int own_label) const {
+double HumanLocalizer::foreignShare(const SegmentationResult& segmentation, const StereoRig& rig, const cv::Rect& box,
+                                    const ObstacleCluster& own_cluster) const {
   if (segmentation.labels.empty()) return 0.0;
   const cv::Rect r = box & cv::Rect(0, 0, segmentation.labels.cols, segmentation.labels.rows);
+  // Clusters within same_object_depth_m of the own cluster's distance are parts of one
+  // object (a rider and the bicycle beneath): only clusters at other distances are foreign.
+  const double fb = rig.focal_px * rig.baseline_m;
+  const double own_z = fb / std::max(own_cluster.offset_px, 1);
+  std::array<std::uint8_t, 256> foreign;
+  foreign.fill(1);
+  for (const auto& c : segmentation.obstacles) {
+    if (c.label < 0 || c.label > 255) continue;
+    const double z = fb / std::max(c.offset_px, 1);
+    if (std::abs(z - own_z) <= params_.filters.same_object_depth_m) foreign[static_cast<std::size_t>(c.label)] = 0;
+  }
   int own = 0;
   int other = 0;
   for (int y = r.y; y < r.y + r.height; ++y) {
     const auto* l = segmentation.labels.ptr<std::uint8_t>(y);
     for (int x = r.x; x < r.x + r.width; ++x) {
       if (l[x] < kLabelFirstObstacle) continue;
-      if (l[x] == own_label) ++own;
+      if (l[x] == own_cluster.label || !foreign[l[x]]) ++own;
       else ++other;
     }
   }
@@ -429,7 +442,7 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
   for (const auto& h : local) {
     if (kept >= cp.max_per_cluster) break;
     const cv::Rect pixels = toPixels(h.box, left.size());
-    if (foreignShare(segmentation, pixels, cluster.label) > fp.max_foreign_share) continue;  // straddles clusters
+    if (foreignShare(segmentation, rig, pixels, cluster) > fp.max_foreign_share) continue;  // straddles clusters
     ++kept;
     // The widened box of a kept candidate, when there is one and it does not
     // straddle clusters; otherwise the core.
@@ -437,7 +450,7 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
     for (const auto& e : extended_) {
       if (e.box.y == h.box.y && e.box.height == h.box.height && e.box.x <= h.box.x &&
           e.box.x + e.box.width >= h.box.x + h.box.width && e.symmetry == h.symmetry) {
-        widened = foreignShare(segmentation, toPixels(e.box, left.size()), cluster.label) <= fp.max_foreign_share;
+        widened = foreignShare(segmentation, rig, toPixels(e.box, left.size()), cluster) <= fp.max_foreign_share;
         if (widened) out.push_back(e);
         break;
       }

@@ -84,6 +84,7 @@ struct FilterParams {
   double min_edge_density = 0.04;         // edge weight per pixel in the box
   double min_grey_stddev = 5.0;           // grey levels; below = uniform texture
   double max_foreign_share = 0.45;        // share of the box's obstacle pixels labelled with other clusters
+  double same_object_depth_m = 0.3;       // clusters this close in distance to the box's own are not "other"
   double nms_iou = 0.35;                  // duplicates: intersection over union above this
   double nms_containment = 0.7;           // duplicates: share of the smaller box inside the larger one
 
@@ -93,6 +94,8 @@ struct FilterParams {
     v.field("min_grey_stddev", min_grey_stddev, 0.0, 128.0, "grey levels", "uniform texture below this");
     v.field("max_foreign_share", max_foreign_share, 0.0, 1.0, "",
             "share of obstacle pixels of other clusters above which a box straddles two clusters");
+    v.field("same_object_depth_m", same_object_depth_m, 0.0, 100.0, "metres",
+            "clusters within this distance of the box's own cluster count as the same object (a rider and the bicycle)");
     v.field("nms_iou", nms_iou, 0.0, 1.0, "", "non-maximum suppression overlap (IoU)");
     v.field("nms_containment", nms_containment, 0.0, 1.0, "", "non-maximum suppression containment");
   }
@@ -279,7 +282,9 @@ class HumanLocalizer {
   void candidatesInCluster(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
                            const SegmentationResult& segmentation, const ObstacleCluster& cluster,
                            std::vector<HumanDetection>& out, bool reference);
-  double foreignShare(const SegmentationResult& segmentation, const cv::Rect& box, int own_label) const;
+  // Share of the box's obstacle pixels that belong to clusters at another distance.
+  double foreignShare(const SegmentationResult& segmentation, const StereoRig& rig, const cv::Rect& box,
+                      const ObstacleCluster& own_cluster) const;
 
   LocalizerParams params_;
   SymmetryScanner scanner_;

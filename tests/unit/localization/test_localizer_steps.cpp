@@ -203,6 +203,44 @@ TEST(Localizer, BoxReachesIntoTheBandTheRightCameraCannotSee) {
   }
 }
 
+// A person whose lower body the segmentation put in a cluster of its own (a rider and the
+// bicycle, legs split off at an occlusion): a box over both is one object when the two
+// clusters stand at the same distance, and straddles two objects when they do not.
+TEST(Localizer, ClustersAtTheSameDistanceAreOneObject) {
+  auto scene = test::renderFigureScene({test::Figure{320.0, 20.0, 1.7, true, 5}});
+  const cv::Rect truth = scene.figure_boxes[0];
+  auto& seg = scene.segmentation;
+  const int split = truth.y + truth.height * 2 / 5;
+  const int lower = kLabelFirstObstacle + 1;
+  for (int y = split; y < seg.labels.rows; ++y)
+    for (int x = 0; x < seg.labels.cols; ++x)
+      if (seg.labels.at<std::uint8_t>(y, x) == kLabelFirstObstacle) seg.labels.at<std::uint8_t>(y, x) = lower;
+  seg.obstacles[0].box = cv::Rect(truth.x, truth.y, truth.width, split - truth.y);
+  ObstacleCluster legs = seg.obstacles[0];
+  legs.label = lower;
+  legs.box = cv::Rect(truth.x, split, truth.width, truth.y + truth.height - split);
+
+  auto bestIoU = [&](int legs_offset, double same_object_depth_m = LocalizerParams{}.filters.same_object_depth_m) {
+    legs.offset_px = legs_offset;
+    SegmentationResult s = seg;
+    s.obstacles.push_back(legs);
+    LocalizerParams p = stepParams();
+    p.filters.same_object_depth_m = same_object_depth_m;
+    HumanLocalizer localizer(p);
+    std::vector<HumanDetection> out;
+    localizer.compute(scene.left, scene.right, scene.rig, s, out);
+    double best = 0.0;
+    for (const auto& h : out)
+      if (h.cluster_label == kLabelFirstObstacle) best = std::max(best, boxIoU(h.box, cv::Rect2f(truth)));
+    return best;
+  };
+  // Offset 20 is 10 m (f B = 200 px m); offset 21 is 0.48 m nearer, offset 30 is 3.3 m nearer.
+  EXPECT_GT(bestIoU(20), 0.5);
+  EXPECT_LT(bestIoU(30), 0.5);
+  EXPECT_LT(bestIoU(21), 0.5);       // 0.48 m apart: more than same_object_depth_m (0.3)
+  EXPECT_GT(bestIoU(21, 0.6), 0.5);  // within 0.6 m
+}
+
 TEST(Localizer, EmptySegmentationGivesNoDetection) {
   const auto scene = test::renderFigureScene({});
   HumanLocalizer localizer(stepParams());
