@@ -226,29 +226,35 @@ double HumanLocalizer::combinedScore(double symmetry, double shape_score) const 
   return 1.0 / (1.0 + std::exp(-t));
 }
 
-double HumanLocalizer::foreignShare(const SegmentationResult& segmentation, const StereoRig& rig, const cv::Rect& box,
-                                    const ObstacleCluster& own_cluster) const {
-  if (segmentation.labels.empty()) return 0.0;
-  const cv::Rect r = box & cv::Rect(0, 0, segmentation.labels.cols, segmentation.labels.rows);
+std::array<std::uint8_t, 256> HumanLocalizer::foreignLabels(const SegmentationResult& segmentation,
+                                                           const StereoRig& rig,
+                                                           const ObstacleCluster& own_cluster) const {
   // Clusters within same_object_depth_m of the own cluster's distance are parts of one
   // object (a rider and the bicycle beneath): only clusters at other distances are foreign.
-  const double fb = rig.focal_px * rig.baseline_m;
-  const double own_z = fb / std::max(own_cluster.offset_px, 1);
+  const double own_z = rig.depthFromOffset(std::max(own_cluster.offset_px, 1));
   std::array<std::uint8_t, 256> foreign;
   foreign.fill(1);
   for (const auto& c : segmentation.obstacles) {
     if (c.label < 0 || c.label > 255) continue;
-    const double z = fb / std::max(c.offset_px, 1);
+    const double z = rig.depthFromOffset(std::max(c.offset_px, 1));
     if (std::abs(z - own_z) <= params_.filters.same_object_depth_m) foreign[static_cast<std::size_t>(c.label)] = 0;
   }
+  if (own_cluster.label >= 0 && own_cluster.label <= 255) foreign[static_cast<std::size_t>(own_cluster.label)] = 0;
+  return foreign;
+}
+
+double HumanLocalizer::foreignShare(const SegmentationResult& segmentation, const cv::Rect& box,
+                                    const std::array<std::uint8_t, 256>& foreign) const {
+  if (segmentation.labels.empty()) return 0.0;
+  const cv::Rect r = box & cv::Rect(0, 0, segmentation.labels.cols, segmentation.labels.rows);
   int own = 0;
   int other = 0;
   for (int y = r.y; y < r.y + r.height; ++y) {
     const auto* l = segmentation.labels.ptr<std::uint8_t>(y);
     for (int x = r.x; x < r.x + r.width; ++x) {
       if (l[x] < kLabelFirstObstacle) continue;
-      if (l[x] == own_cluster.label || !foreign[l[x]]) ++own;
-      else ++other;
+      if (foreign[l[x]]) ++other;
+      else ++own;
     }
   }
   return own + other > 0 ? static_cast<double>(other) / (own + other) : 0.0;
@@ -356,7 +362,7 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
     const std::uint8_t* r = right.ptr<std::uint8_t>(iy);
     // Left of the offset the right camera does not see the scene: such a feature cannot be
     // matched, and it cannot be refuted either.
-    if (cp.extent_blind_band && ix - (cluster.offset_px - 1) < 0) return true;
+    if (cp.extent_blind_band && ix < cluster.offset_px - 1) return true;
     for (int dd = cluster.offset_px - 1; dd <= cluster.offset_px + 1; ++dd) {
       const int xr = ix - dd;
       if (xr >= 0 && xr < right.cols && std::abs(a - static_cast<int>(r[xr])) <= cp.extent_grey_tolerance)
@@ -438,11 +444,12 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
   }
   if (reference) suppressDuplicates(local, fp.nms_iou, fp.nms_containment);
   else suppressDuplicatesInPlace(local, fp.nms_iou, fp.nms_containment);
+  const std::array<std::uint8_t, 256> foreign = foreignLabels(segmentation, rig, cluster);
   int kept = 0;
   for (const auto& h : local) {
     if (kept >= cp.max_per_cluster) break;
     const cv::Rect pixels = toPixels(h.box, left.size());
-    if (foreignShare(segmentation, rig, pixels, cluster) > fp.max_foreign_share) continue;  // straddles clusters
+    if (foreignShare(segmentation, pixels, foreign) > fp.max_foreign_share) continue;  // straddles clusters
     ++kept;
     // The widened box of a kept candidate, when there is one and it does not
     // straddle clusters; otherwise the core.
@@ -450,7 +457,7 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
     for (const auto& e : extended_) {
       if (e.box.y == h.box.y && e.box.height == h.box.height && e.box.x <= h.box.x &&
           e.box.x + e.box.width >= h.box.x + h.box.width && e.symmetry == h.symmetry) {
-        widened = foreignShare(segmentation, rig, toPixels(e.box, left.size()), cluster) <= fp.max_foreign_share;
+        widened = foreignShare(segmentation, toPixels(e.box, left.size()), foreign) <= fp.max_foreign_share;
         if (widened) out.push_back(e);
         break;
       }

@@ -18,6 +18,7 @@
 //
 // Not re-entrant: one localizer per thread; it keeps its scratch across frames
 // (compute() runs its own parallel bands).
+#include <array>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -282,9 +283,13 @@ class HumanLocalizer {
   void candidatesInCluster(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
                            const SegmentationResult& segmentation, const ObstacleCluster& cluster,
                            std::vector<HumanDetection>& out, bool reference);
-  // Share of the box's obstacle pixels that belong to clusters at another distance.
-  double foreignShare(const SegmentationResult& segmentation, const StereoRig& rig, const cv::Rect& box,
-                      const ObstacleCluster& own_cluster) const;
+  // Per label, 1 where the cluster stands at another distance than `own_cluster` (a box
+  // over it straddles two objects); computed once per cluster.
+  std::array<std::uint8_t, 256> foreignLabels(const SegmentationResult& segmentation, const StereoRig& rig,
+                                              const ObstacleCluster& own_cluster) const;
+  // Share of the box's obstacle pixels whose label `foreign` marks.
+  double foreignShare(const SegmentationResult& segmentation, const cv::Rect& box,
+                      const std::array<std::uint8_t, 256>& foreign) const;
 
   LocalizerParams params_;
   SymmetryScanner scanner_;
