@@ -409,6 +409,12 @@ void printRatio(const Collector& c, const std::string& label, const std::string&
   const Collector::Figures& x = a->second;
   const Collector::Figures& y = b->second;
   const double med = wall ? x.median_ms / y.median_ms : x.cpu_median_ms / y.cpu_median_ms;
+  // With --benchmark_report_aggregates_only the single runs never reach the reporter: no minimum.
+  const bool have_min = wall ? (x.min_ms > 0.0 && y.min_ms > 0.0) : (x.cpu_min_ms > 0.0 && y.cpu_min_ms > 0.0);
+  if (!have_min) {
+    std::printf("  %-60s %7.2fx (median) %8s (min) %s\n", label.c_str(), med, "-", wall ? "wall" : "cpu");
+    return;
+  }
   const double mn = wall ? x.min_ms / y.min_ms : x.cpu_min_ms / y.cpu_min_ms;
   std::printf("  %-60s %7.2fx (median) %7.2fx (min) %s\n", label.c_str(), med, mn, wall ? "wall" : "cpu");
 }
