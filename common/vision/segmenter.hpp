@@ -16,6 +16,7 @@
 #include "vision/ground_profile.hpp"
 #include "vision/obstacle_extraction.hpp"
 #include "vision/segmentation_types.hpp"
+#include "vision/standing_people.hpp"
 
 namespace sg {
 
@@ -24,6 +25,7 @@ struct SegmenterParams {
   GroundParams ground;
   RemovalParams removal;
   ObstacleParams obstacles;
+  StandingParams standing;
   bool parallel = true;  // TBB row bands; false runs the serial references (identical results)
 
   template <class V>
@@ -32,11 +34,13 @@ struct SegmenterParams {
     v.group("ground", ground);
     v.group("removal", removal);
     v.group("obstacles", obstacles);
+    v.group("standing", standing);
     v.field("parallel", parallel, 0, 1, "", "run the row-band parallel paths");
   }
   void validate() const {
     validateParams(*this, "segmentation");
     ground.validate();
+    standing.validate();
   }
 };
 
@@ -77,6 +81,7 @@ class Segmenter {
   GroundEstimator ground_;
   FeatureRemover remover_;
   ObstacleExtractor obstacles_;
+  StandingPeopleFinder standing_;
   GroundProfile previous_ground_;     // last measured (Hough) profile
   int previous_age_frames_ = 0;       // frames since it was measured
   bool have_previous_ = false;

@@ -278,7 +278,7 @@ void runBench(const BenchOptions& opt) {
     std::cout << "  " << std::left << std::setw(14) << name << std::right << std::setw(9) << s.median << std::setw(9)
               << s.min << "\n";
   };
-  for (const char* stage : {"features", "correlation", "ground", "removal", "obstacles", "total"}) {
+  for (const char* stage : {"features", "correlation", "ground", "removal", "obstacles", "standing", "total"}) {
     const auto it = f.stage_ms.find(stage);
     if (it == f.stage_ms.end()) continue;
     const Stats s = stats(it->second);

@@ -282,6 +282,82 @@ TEST(SyntheticObstacles, FarPeopleBelowTheObstacleThresholdsComeOutAsPersonSized
   EXPECT_GT(added, 0);
 }
 
+// Far people whose features the ground removal took lie in no cluster of the obstacle loop.
+// The local standing test (vision/standing_people.hpp) finds them where they stand: over
+// random scenes more people 20 m or farther lie in a cluster at their offset with it than
+// without, and every cluster it adds is at a searched offset, stands on the ground contact
+// row of that offset and is no wider than a window and its two half-window margins.
+TEST(SyntheticObstacles, FarPeopleWithoutAClusterAreFoundStandingOnTheGround) {
+  SegmenterParams off;
+  off.standing.enabled = false;
+  const SegmenterParams on;
+  ASSERT_TRUE(on.standing.enabled);
+  int found_on = 0, found_off = 0, people = 0, added = 0;
+  for (std::uint64_t seed = 1; seed <= 50; ++seed) {
+    const StereoPair pair = renderSyntheticScene(randomSceneParams(seed), seed);
+    const SceneTruth& t = *pair.truth;
+    const SegmentationResult with = segment(pair, on), without = segment(pair, off);
+    const double fb = pair.rig.focal_px * pair.rig.baseline_m;
+    auto inCluster = [&](const std::vector<ObstacleCluster>& clusters, const cv::Rect& box, double offset) {
+      for (const ObstacleCluster& c : clusters)
+        if (std::abs(c.offset_px - offset) <= 1.0 && 2 * (c.box & box).area() >= box.area()) return true;
+      return false;
+    };
+    for (std::size_t k = 0; k < t.objects.size(); ++k) {
+      const ObjectLabel& o = t.objects[k];
+      if (o.type != "Pedestrian" || t.object_visible_px[k] <= 0 || o.location_m[2] < 20.0) continue;
+      const cv::Rect box = labelBox(o);
+      ++people;
+      found_on += inCluster(with.obstacles, box, fb / o.location_m[2]);
+      found_off += inCluster(without.obstacles, box, fb / o.location_m[2]);
+    }
+    // The stage appends its clusters after the loop's: the first ones are the same.
+    ASSERT_GE(with.obstacles.size(), without.obstacles.size()) << "seed " << seed;
+    for (std::size_t i = without.obstacles.size(); i < with.obstacles.size(); ++i) {
+      const ObstacleCluster& c = with.obstacles[i];
+      ++added;
+      EXPECT_GE(c.offset_px, std::ceil(fb / on.standing.far_m)) << "seed " << seed;
+      EXPECT_LE(c.offset_px, std::floor(fb / on.standing.near_m)) << "seed " << seed;
+      EXPECT_EQ(c.min_offset_px, c.offset_px);
+      EXPECT_EQ(c.max_offset_px, c.offset_px);
+      const double px_per_m = c.offset_px / pair.rig.baseline_m;
+      EXPECT_LE(c.box.width, 2.0 * on.standing.window_width_m * px_per_m + 2.0) << "seed " << seed;
+      // The bottom is the row where the ground reaches the cluster's offset, at the box's centre.
+      const float ground = with.ground.groundOffsetAt(c.box.y + c.box.height - 1, c.box.x + c.box.width / 2.0f);
+      EXPECT_NEAR(ground, c.offset_px, 1.0) << "seed " << seed;
+      // Its pixels carry its label.
+      EXPECT_EQ(cv::countNonZero(with.labels == c.label), c.feature_count) << "seed " << seed;
+    }
+  }
+  std::printf("people 20 m or farther in a cluster: %d/%d with the standing test, %d/%d without; %d clusters added\n",
+              found_on, people, found_off, people, added);
+  EXPECT_GT(found_on, found_off);
+  EXPECT_GT(added, 0);
+}
+
+// Ground and background alone, on flat and sloped terrain: the standing test adds nothing.
+TEST(SyntheticObstacles, StandingTestAddsNothingOnEmptyTerrain) {
+  for (const double slope : {0.0, 0.06}) {
+    SyntheticSceneParams p = terrainScene(slope > 0 ? TerrainProfile::kUphill : TerrainProfile::kFlat, slope);
+    p.people.clear();
+    p.obstacles.clear();
+    for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+      const StereoPair pair = renderSyntheticScene(p, seed);
+      SegmenterParams off;
+      off.standing.enabled = false;
+      const SegmentationResult with = segment(pair), without = segment(pair, off);
+      EXPECT_EQ(with.obstacles.size(), without.obstacles.size()) << "slope " << slope << " seed " << seed;
+    }
+  }
+}
+
+TEST(SyntheticObstacles, StandingRangeMustBeOrdered) {
+  StandingParams p;
+  p.near_m = 30.0;
+  p.far_m = 20.0;
+  test::expectInputError([&] { p.validate(); }, {"standing.far_m", "standing.near_m"});
+}
+
 // Left of an object the left camera sees a band of what is behind that the right camera does
 // not (as wide as the object's offset minus the offset behind); its texture matches the
 // object's offset by chance and widens the box to the left. The left-right test trims it:

@@ -1,0 +1,331 @@
+#include "vision/standing_people.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+
+#include "config/errors.hpp"
+
+namespace sg {
+
+namespace {
+
+constexpr int kHalf = 2;  // the SAD window is 2 * kHalf + 1 pixels wide
+constexpr int kUnknownCost = 0xFFFF;  // line_cost_ not yet computed
+
+// Sum of absolute differences of the 5-pixel windows at column x of the left row and
+// x - offset of the right row; the caller keeps both inside the image.
+inline int sadAt(const std::uint8_t* l, const std::uint8_t* r, int x, int offset) {
+  int s = 0;
+  for (int i = -kHalf; i <= kHalf; ++i) s += std::abs(static_cast<int>(l[x + i]) - static_cast<int>(r[x + i - offset]));
+  return s;
+}
+
+// The ground/background line's offset at (y, x); NaN where it is unknown.
+inline float lineOffsetAt(const GroundProfile& ground, int y, int x) {
+  if (y < ground.horizon_row) return ground.background_offset;
+  return ground.groundOffsetAt(y, static_cast<float>(x));
+}
+
+// Lowest SAD at the line's offset +-1 (the line is known to a pixel); a large value where
+// no offset can be compared.
+inline int lineCost(const std::uint8_t* l, const std::uint8_t* r, int x, float line) {
+  const int g = static_cast<int>(std::lround(line));
+  int best = 1 << 20;
+  for (int e = g - 1; e <= g + 1; ++e)
+    if (e >= 0 && x - e - kHalf >= 0) best = std::min(best, sadAt(l, r, x, e));
+  return best;
+}
+
+}  // namespace
+
+void StandingParams::validate() const {
+  validateParams(*this, "standing");
+  if (far_m <= near_m) throw InputError("standing.far_m must be larger than standing.near_m");
+}
+
+StandingPeopleFinder::StandingPeopleFinder(const StandingParams& params) : params_(params) { params_.validate(); }
+
+int StandingPeopleFinder::compute(const cv::Mat& left_features, const cv::Mat& right_features,
+                                  const GroundProfile& ground, double baseline_m, double focal_px,
+                                  int max_obstacles, double max_range_m, cv::Mat& labels,
+                                  std::vector<ObstacleCluster>& obstacles) {
+  const auto& p = params_;
+  if (!p.enabled || p.max_clusters == 0 || ground.horizon_row < 0 || ground.offset_per_row.empty()) return 0;
+  if (!(baseline_m > 0.0) || !(focal_px > 0.0)) return 0;
+  if (static_cast<int>(obstacles.size()) >= max_obstacles) return 0;  // nothing could be added
+  const int width = left_features.cols, height = left_features.rows;
+  const double fb = focal_px * baseline_m;
+  const double far_m = max_range_m > 0.0 ? std::min(p.far_m, max_range_m) : p.far_m;
+  const int d_lo = std::max(2, static_cast<int>(std::ceil(fb / far_m)));
+  const int d_hi = static_cast<int>(std::floor(fb / p.near_m));
+  if (d_hi < d_lo) return 0;
+  const int n_offsets = d_hi - d_lo + 1;
+  column_count_.assign(static_cast<std::size_t>(width), 0);
+  column_cells_.assign(static_cast<std::size_t>(width), 0);
+  window_top_.resize(static_cast<std::size_t>(width));
+  window_bottom_.resize(static_cast<std::size_t>(width));
+  diff_.assign(static_cast<std::size_t>(width), 0);
+  sad_.assign(static_cast<std::size_t>(width), 0);
+  candidate_.assign(static_cast<std::size_t>(width), 0);
+  // Capacity for every window a frame can hold (a local maximum every other column at each
+  // offset): no allocation once the first frame of a size has run.
+  row_windows_.reserve(static_cast<std::size_t>(width));
+  windows_.reserve(static_cast<std::size_t>(n_offsets) * static_cast<std::size_t>(width / 2 + 1));
+  windows_.clear();
+
+  // Contact rows of every searched offset, per column: the first row below the horizon whose
+  // ground offset reaches d (-1: none). One walk down each column serves all offsets.
+  contact_.assign(static_cast<std::size_t>(n_offsets) * static_cast<std::size_t>(width), -1);
+  const int first_ground_row = std::max(ground.horizon_row, 0);
+  for (int x = 0; x < width; ++x) {
+    int d = d_lo;
+    for (int y = first_ground_row; y < height && d <= d_hi; ++y) {
+      const float g = ground.groundOffsetAt(y, static_cast<float>(x));
+      if (!std::isfinite(g)) continue;
+      for (; d <= d_hi && g >= static_cast<float>(d) - 0.5f; ++d)
+        contact_[static_cast<std::size_t>(d - d_lo) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)] = y;
+    }
+  }
+  // The line's cost of a pixel does not depend on d: computed on first use, kept for the frame.
+  if (line_cost_.rows != height || line_cost_.cols != width) line_cost_.create(height, width, CV_16UC1);
+  {  // reset on the rows the windows can reach only: a tall person above the nearest contact row
+    int lowest = -1;
+    for (const int c : contact_) lowest = std::max(lowest, c);
+    const int highest = std::max(0, first_ground_row - static_cast<int>(std::lround(2.2 * d_hi / baseline_m)));
+    for (int y = highest; y <= lowest; ++y) {
+      std::uint16_t* row = line_cost_.ptr<std::uint16_t>(y);
+      std::fill(row, row + width, static_cast<std::uint16_t>(kUnknownCost));
+    }
+  }
+
+  // A standing pixel: a feature that matches at d within max_cost and better than at the line
+  // by cost_margin, on a row where the line's offset is clearly not d.
+  auto standing = [&](int y, int x, int d, float line) {
+    const std::uint8_t* l = left_features.ptr<std::uint8_t>(y);
+    const std::uint8_t* r = right_features.ptr<std::uint8_t>(y);
+    if (l[x] == 0 || x - d - kHalf < 0) return false;
+    const int cd = sadAt(l, r, x, d);
+    if (cd > p.max_cost) return false;
+    std::uint16_t& lc = line_cost_.ptr<std::uint16_t>(y)[x];
+    if (lc == kUnknownCost) lc = static_cast<std::uint16_t>(std::min(lineCost(l, r, x, line), kUnknownCost - 1));
+    return cd + p.cost_margin < static_cast<int>(lc);
+  };
+
+  for (int d = d_lo; d <= d_hi; ++d) {
+    const double px_per_m = d / baseline_m;
+    const int rows = std::max(4, static_cast<int>(std::lround(p.window_height_m * px_per_m)));
+    const int w = std::max(3, static_cast<int>(std::lround(p.window_width_m * px_per_m)));
+    const int* contact = contact_.data() + static_cast<std::size_t>(d - d_lo) * static_cast<std::size_t>(width);
+    const int x_begin = d + kHalf + 2, x_end = width - kHalf;
+    int y_lo = height, y_hi = -1;
+    for (int x = x_begin; x < x_end; ++x) {
+      if (contact[x] < 0) continue;
+      y_lo = std::min(y_lo, std::max(0, contact[x] - rows));
+      y_hi = std::max(y_hi, contact[x]);
+    }
+    std::fill(column_count_.begin(), column_count_.end(), 0);
+    std::fill(column_cells_.begin(), column_cells_.end(), 0);
+    for (int x = 0; x < width; ++x) {
+      const int c = contact[x];
+      window_top_[static_cast<std::size_t>(x)] = c < 0 ? height : c - rows;  // rows [top, bottom)
+      window_bottom_[static_cast<std::size_t>(x)] = c < 0 ? -1 : c;
+    }
+    const float fd = static_cast<float>(d);
+    const float clearance = static_cast<float>(p.ground_clearance_px);
+    for (int y = y_lo; y < y_hi; ++y) {
+      const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+      const std::uint8_t* l = left_features.ptr<std::uint8_t>(y);
+      const std::uint8_t* r = right_features.ptr<std::uint8_t>(y);
+      const bool background = y < ground.horizon_row;
+      const float row_line = background ? ground.background_offset : ground.offset_per_row[static_cast<std::size_t>(y)];
+      const float row_slope = background ? 0.0f : ground.offsetPerColumnAt(y);
+      if (!std::isfinite(row_line)) continue;
+      // Written for the auto-vectoriser: the absolute differences at d, their 5-pixel sums,
+      // then the cells of the windows and the pixels worth the line's cost.
+      std::uint8_t* ad = diff_.data();
+      std::uint16_t* sad = sad_.data();
+      std::uint8_t* cand = candidate_.data();
+      int* cells = column_cells_.data();
+      const int* top = window_top_.data();
+      const int* bottom = window_bottom_.data();
+      for (int x = d; x < width; ++x) {
+        const int a = static_cast<int>(l[x]) - static_cast<int>(r[x - d]);
+        ad[x] = static_cast<std::uint8_t>(a < 0 ? -a : a);
+      }
+      for (int x = x_begin; x < x_end; ++x)
+        sad[x] = static_cast<std::uint16_t>(ad[x - 2] + ad[x - 1] + ad[x] + ad[x + 1] + ad[x + 2]);
+      const float line0 = row_line - row_slope * ground.reference_column - fd;  // line - d at x = 0
+      const int max_cost = p.max_cost;
+      for (int x = x_begin; x < x_end; ++x) {
+        const float off = line0 + row_slope * static_cast<float>(x);
+        const int cell = static_cast<int>(y >= top[x]) & static_cast<int>(y < bottom[x]) &
+                         static_cast<int>(std::fabs(off) > clearance);
+        cells[x] += cell;
+        cand[x] = static_cast<std::uint8_t>(cell & static_cast<int>(l[x] != 0) &
+                                            static_cast<int>(lab[x] < kLabelFirstObstacle) &
+                                            static_cast<int>(static_cast<int>(sad[x]) <= max_cost));
+      }
+      std::uint16_t* lc_row = line_cost_.ptr<std::uint16_t>(y);
+      for (int x = x_begin; x < x_end; ++x) {
+        if (x + 8 <= x_end) {  // most rows hold few candidates: skip them eight at a time
+          std::uint64_t eight = 0;
+          std::memcpy(&eight, cand + x, sizeof eight);
+          if (eight == 0) {
+            x += 7;
+            continue;
+          }
+        }
+        if (cand[x] == 0) continue;
+        std::uint16_t& lc = lc_row[x];
+        if (lc == kUnknownCost) {
+          const float line = row_line + row_slope * (static_cast<float>(x) - ground.reference_column);
+          lc = static_cast<std::uint16_t>(std::min(lineCost(l, r, x, line), kUnknownCost - 1));
+        }
+        if (static_cast<int>(sad[x]) + p.cost_margin < static_cast<int>(lc)) ++column_count_[static_cast<std::size_t>(x)];
+      }
+    }
+    // Windows of w columns; local maxima of the standing pixels above the thresholds.
+    int sum = 0, sum_cells = 0;
+    std::vector<Window>& row_windows = row_windows_;
+    row_windows.clear();
+    for (int x = x_begin; x < x_end; ++x) {
+      sum += column_count_[static_cast<std::size_t>(x)];
+      sum_cells += column_cells_[static_cast<std::size_t>(x)];
+      if (x - w >= x_begin) {
+        sum -= column_count_[static_cast<std::size_t>(x - w)];
+        sum_cells -= column_cells_[static_cast<std::size_t>(x - w)];
+      }
+      if (x - w + 1 < x_begin) continue;
+      Window win;
+      win.offset = d;
+      win.x0 = x - w + 1;
+      win.x1 = x + 1;
+      win.pixels = sum;
+      win.density = sum_cells > 0 ? static_cast<double>(sum) / sum_cells : 0.0;
+      row_windows.push_back(win);
+    }
+    for (std::size_t i = 0; i < row_windows.size(); ++i) {
+      const Window& win = row_windows[i];
+      if (win.pixels < p.min_pixels || win.density < p.min_density) continue;
+      const bool left_higher = i > 0 && row_windows[i - 1].pixels > win.pixels;
+      const bool right_higher = i + 1 < row_windows.size() && row_windows[i + 1].pixels >= win.pixels;
+      if (!left_higher && !right_higher) windows_.push_back(win);
+    }
+  }
+
+  // Strongest first; one window per figure (neighbouring offsets see the same one), none on
+  // an obstacle already found.
+  std::stable_sort(windows_.begin(), windows_.end(), [](const Window& a, const Window& b) { return a.pixels > b.pixels; });
+  accepted_.clear();
+  int added = 0;
+  for (const Window& win : windows_) {
+    if (static_cast<int>(accepted_.size()) >= p.max_clusters) break;
+    if (static_cast<int>(obstacles.size()) >= max_obstacles) break;
+    if (kLabelFirstObstacle + static_cast<int>(obstacles.size()) > 255) break;
+    bool taken = false;
+    for (const Window& a : accepted_)
+      if (win.x0 < a.x1 && a.x0 < win.x1 && std::abs(a.offset - win.offset) <= 3) taken = true;
+    if (taken) continue;
+    const double px_per_m = win.offset / baseline_m;
+    const int xc = (win.x0 + win.x1) / 2;
+    const int c =
+        contact_[static_cast<std::size_t>(win.offset - d_lo) * static_cast<std::size_t>(width) + static_cast<std::size_t>(xc)];
+    if (c < 0) continue;
+    const int rows = std::max(4, static_cast<int>(std::lround(p.window_height_m * px_per_m)));
+    const cv::Rect window_box(win.x0, std::max(0, c - rows), win.x1 - win.x0, c - std::max(0, c - rows) + 1);
+    bool on_obstacle = false;
+    for (const ObstacleCluster& o : obstacles) {
+      const cv::Rect inter = o.box & window_box;
+      if (inter.area() * 2 >= window_box.area()) on_obstacle = true;
+    }
+    if (on_obstacle) continue;
+    accepted_.push_back(win);
+
+    // The cluster, in two passes. First the standing pixels within half a window of it, up
+    // to a tall person's height above the contact row; its columns are those holding at least
+    // two of them. Then, inside those columns only, the features of the rows near the contact
+    // where the line cannot tell (the legs) that match the offset +-1.
+    const int label = kLabelFirstObstacle + static_cast<int>(obstacles.size());
+    const int reach = (win.x1 - win.x0) / 2;
+    const int bx0 = std::max(win.offset + kHalf + 2, win.x0 - reach), bx1 = std::min(width - kHalf, win.x1 + reach);
+    const int top_limit = std::max(0, c - static_cast<int>(std::lround(2.1 * px_per_m)));
+    const int bottom = std::min(c, height - 1);
+    column_count_.assign(static_cast<std::size_t>(width), 0);
+    auto ambiguous = [&](int y, int x, float& line) {
+      line = lineOffsetAt(ground, y, x);
+      return !std::isfinite(line) ||
+             static_cast<double>(std::abs(line - static_cast<float>(win.offset))) <= p.ground_clearance_px;
+    };
+    for (int y = top_limit; y <= bottom; ++y) {
+      const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+      for (int x = bx0; x < bx1; ++x) {
+        float line = 0.0f;
+        if (lab[x] >= kLabelFirstObstacle || ambiguous(y, x, line)) continue;
+        if (standing(y, x, win.offset, line)) ++column_count_[static_cast<std::size_t>(x)];
+      }
+    }
+    // Columns: at least two standing pixels and a quarter of the best column's.
+    int best_column = 0;
+    for (int x = bx0; x < bx1; ++x) best_column = std::max(best_column, column_count_[static_cast<std::size_t>(x)]);
+    const int min_column = std::max(2, best_column / 4);
+    int left = bx1, right = bx0 - 1;
+    for (int x = bx0; x < bx1; ++x) {
+      if (column_count_[static_cast<std::size_t>(x)] < min_column) continue;
+      left = std::min(left, x);
+      right = std::max(right, x);
+    }
+    if (right < left) continue;
+    // Top: up from the contact, over rows holding standing pixels in those columns, across
+    // gaps of at most max_gap rows (chance matches above the head stay out).
+    const int max_gap = std::max(2, static_cast<int>(std::lround(0.1 * px_per_m)));
+    int body_top = bottom, gap = 0;
+    for (int y = bottom; y >= top_limit; --y) {
+      const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+      int n = 0;
+      for (int x = left; x <= right; ++x) {
+        float line = 0.0f;
+        if (lab[x] < kLabelFirstObstacle && !ambiguous(y, x, line) && standing(y, x, win.offset, line)) ++n;
+      }
+      if (n > 0) {
+        body_top = y;
+        gap = 0;
+      } else if (++gap > max_gap && body_top < bottom) {
+        break;
+      }
+    }
+    int top = bottom, pixels = 0;
+    for (int y = body_top; y <= bottom; ++y) {
+      std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+      const std::uint8_t* l = left_features.ptr<std::uint8_t>(y);
+      const std::uint8_t* r = right_features.ptr<std::uint8_t>(y);
+      for (int x = left; x <= right; ++x) {
+        if (l[x] == 0 || lab[x] >= kLabelFirstObstacle) continue;
+        float line = 0.0f;
+        bool take = false;
+        if (!ambiguous(y, x, line)) {
+          take = standing(y, x, win.offset, line);
+        } else {
+          for (int e = win.offset - 1; e <= win.offset + 1 && !take; ++e)
+            take = x - e >= 0 && std::abs(static_cast<int>(l[x]) - static_cast<int>(r[x - e])) <= p.grey_tolerance;
+        }
+        if (!take) continue;
+        lab[x] = static_cast<std::uint8_t>(label);
+        ++pixels;
+        top = std::min(top, y);
+      }
+    }
+    if (pixels == 0) continue;
+    ObstacleCluster o;
+    o.label = label;
+    o.offset_px = o.min_offset_px = o.max_offset_px = win.offset;
+    o.box = cv::Rect(left, top, right - left + 1, bottom - top + 1);
+    o.feature_count = pixels;
+    obstacles.push_back(o);
+    ++added;
+  }
+  return added;
+}
+
+}  // namespace sg
