@@ -103,8 +103,13 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
                      out.labels, out.obstacles, rig.baseline_m, rig.focal_px);
   out.timing_ms["obstacles"] = msSince(t);
   t = Clock::now();
-  standing_.compute(left_features, right_features, out.ground, rig.baseline_m, rig.focal_px,
-                    params_.obstacles.max_obstacles, params_.obstacles.max_range_m, out.labels, out.obstacles);
+  if (params_.parallel)
+    standing_.compute(left_features, right_features, out.ground, rig.baseline_m, rig.focal_px,
+                      params_.obstacles.max_obstacles, params_.obstacles.max_range_m, out.labels, out.obstacles);
+  else
+    standing_.computeReference(left_features, right_features, out.ground, rig.baseline_m, rig.focal_px,
+                               params_.obstacles.max_obstacles, params_.obstacles.max_range_m, out.labels,
+                               out.obstacles);
   out.timing_ms["standing"] = msSince(t);
   const auto t_after = Clock::now();
   obstacles_.trimOccludedLeft(left_features, right_features, out.ground, out.labels, out.obstacles);

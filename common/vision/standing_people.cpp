@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 
 #include "config/errors.hpp"
 
@@ -12,7 +13,7 @@ namespace sg {
 namespace {
 
 constexpr int kHalf = 2;  // the SAD window is 2 * kHalf + 1 pixels wide
-constexpr int kUnknownCost = 0xFFFF;  // line_cost_ not yet computed
+constexpr int kNoCost = 0xFFFE;  // line cost where no offset can be compared
 
 // Sum of absolute differences of the 5-pixel windows at column x of the left row and
 // x - offset of the right row; the caller keeps both inside the image.
@@ -28,17 +29,60 @@ inline float lineOffsetAt(const GroundProfile& ground, int y, int x) {
   return ground.groundOffsetAt(y, static_cast<float>(x));
 }
 
-// Lowest SAD at the line's offset +-1 (the line is known to a pixel); a large value where
-// no offset can be compared.
+// The reference's per-pixel line cost: the lowest SAD at the line's offset +-1 (kNoCost
+// where no offset can be compared). lineCostRow computes the same for a whole row.
 inline int lineCost(const std::uint8_t* l, const std::uint8_t* r, int x, float line) {
   const int g = static_cast<int>(std::lround(line));
-  int best = 1 << 20;
+  int best = kNoCost;
   for (int e = g - 1; e <= g + 1; ++e)
     if (e >= 0 && x - e - kHalf >= 0) best = std::min(best, sadAt(l, r, x, e));
   return best;
 }
 
+// Rows whose line offset is within the clearance of d cannot tell the two apart.
+inline bool clearOf(float line, int d, float clearance) {
+  return std::fabs(line - static_cast<float>(d)) > clearance;
+}
+
 }  // namespace
+
+const std::uint16_t* StandingPeopleFinder::lineCostRow(int y, const cv::Mat& left_features,
+                                                      const cv::Mat& right_features, const GroundProfile& ground) {
+  std::uint16_t* lc = line_cost_.ptr<std::uint16_t>(y);
+  if (line_cost_ready_[static_cast<std::size_t>(y)] != 0) return lc;
+  line_cost_ready_[static_cast<std::size_t>(y)] = 1;
+  const int width = left_features.cols;
+  std::fill(lc, lc + width, static_cast<std::uint16_t>(kNoCost));
+  // The line's offset per column, rounded: the line is known to a pixel, so each pixel's
+  // cost is the lowest SAD at that offset +-1. Each offset the row's line takes is matched
+  // along the whole row at once.
+  int g_lo = std::numeric_limits<int>::max(), g_hi = std::numeric_limits<int>::min();
+  int* gi = line_round_.data();
+  for (int x = 0; x < width; ++x) {
+    const float line = lineOffsetAt(ground, y, x);
+    gi[x] = std::isfinite(line) ? static_cast<int>(std::lround(line)) : std::numeric_limits<int>::min() / 2;
+    if (!std::isfinite(line)) continue;
+    g_lo = std::min(g_lo, gi[x]);
+    g_hi = std::max(g_hi, gi[x]);
+  }
+  if (g_lo > g_hi) return lc;
+  const std::uint8_t* l = left_features.ptr<std::uint8_t>(y);
+  const std::uint8_t* r = right_features.ptr<std::uint8_t>(y);
+  std::uint8_t* ad = diff_.data();
+  for (int e = std::max(0, g_lo - 1); e <= g_hi + 1 && e < width; ++e) {
+    for (int x = e; x < width; ++x) {
+      const int a = static_cast<int>(l[x]) - static_cast<int>(r[x - e]);
+      ad[x] = static_cast<std::uint8_t>(a < 0 ? -a : a);
+    }
+    for (int x = std::max(kHalf, e + kHalf); x < width - kHalf; ++x) {
+      const int sad = ad[x - 2] + ad[x - 1] + ad[x] + ad[x + 1] + ad[x + 2];
+      const int near = static_cast<int>(gi[x] - e <= 1 && e - gi[x] <= 1);
+      const int v = near != 0 && sad < static_cast<int>(lc[x]) ? sad : static_cast<int>(lc[x]);
+      lc[x] = static_cast<std::uint16_t>(v);
+    }
+  }
+  return lc;
+}
 
 void StandingParams::validate() const {
   validateParams(*this, "standing");
@@ -51,6 +95,22 @@ int StandingPeopleFinder::compute(const cv::Mat& left_features, const cv::Mat& r
                                   const GroundProfile& ground, double baseline_m, double focal_px,
                                   int max_obstacles, double max_range_m, cv::Mat& labels,
                                   std::vector<ObstacleCluster>& obstacles) {
+  return run(left_features, right_features, ground, baseline_m, focal_px, max_obstacles, max_range_m, labels,
+             obstacles, false);
+}
+
+int StandingPeopleFinder::computeReference(const cv::Mat& left_features, const cv::Mat& right_features,
+                                           const GroundProfile& ground, double baseline_m, double focal_px,
+                                           int max_obstacles, double max_range_m, cv::Mat& labels,
+                                           std::vector<ObstacleCluster>& obstacles) {
+  return run(left_features, right_features, ground, baseline_m, focal_px, max_obstacles, max_range_m, labels,
+             obstacles, true);
+}
+
+int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right_features,
+                              const GroundProfile& ground, double baseline_m, double focal_px, int max_obstacles,
+                              double max_range_m, cv::Mat& labels, std::vector<ObstacleCluster>& obstacles,
+                              bool reference) {
   const auto& p = params_;
   if (!p.enabled || p.max_clusters == 0 || ground.horizon_row < 0 || ground.offset_per_row.empty()) return 0;
   if (!(baseline_m > 0.0) || !(focal_px > 0.0)) return 0;
@@ -79,7 +139,18 @@ int StandingPeopleFinder::compute(const cv::Mat& left_features, const cv::Mat& r
   // ground offset reaches d (-1: none). One walk down each column serves all offsets.
   contact_.assign(static_cast<std::size_t>(n_offsets) * static_cast<std::size_t>(width), -1);
   const int first_ground_row = std::max(ground.horizon_row, 0);
-  for (int x = 0; x < width; ++x) {
+  for (int x = 0; x < width && reference; ++x) {  // reference: a walk per offset
+    for (int d = d_lo; d <= d_hi; ++d) {
+      for (int y = first_ground_row; y < height; ++y) {
+        const float g = ground.groundOffsetAt(y, static_cast<float>(x));
+        if (std::isfinite(g) && g >= static_cast<float>(d) - 0.5f) {
+          contact_[static_cast<std::size_t>(d - d_lo) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)] = y;
+          break;
+        }
+      }
+    }
+  }
+  for (int x = 0; x < width && !reference; ++x) {
     int d = d_lo;
     for (int y = first_ground_row; y < height && d <= d_hi; ++y) {
       const float g = ground.groundOffsetAt(y, static_cast<float>(x));
@@ -90,28 +161,22 @@ int StandingPeopleFinder::compute(const cv::Mat& left_features, const cv::Mat& r
   }
   // The line's cost of a pixel does not depend on d: computed on first use, kept for the frame.
   if (line_cost_.rows != height || line_cost_.cols != width) line_cost_.create(height, width, CV_16UC1);
-  {  // reset on the rows the windows can reach only: a tall person above the nearest contact row
-    int lowest = -1;
-    for (const int c : contact_) lowest = std::max(lowest, c);
-    const int highest = std::max(0, first_ground_row - static_cast<int>(std::lround(2.2 * d_hi / baseline_m)));
-    for (int y = highest; y <= lowest; ++y) {
-      std::uint16_t* row = line_cost_.ptr<std::uint16_t>(y);
-      std::fill(row, row + width, static_cast<std::uint16_t>(kUnknownCost));
-    }
-  }
+  line_cost_ready_.assign(static_cast<std::size_t>(height), 0);
+  line_round_.resize(static_cast<std::size_t>(width));
 
   // A standing pixel: a feature that matches at d within max_cost and better than at the line
   // by cost_margin, on a row where the line's offset is clearly not d.
-  auto standing = [&](int y, int x, int d, float line) {
+  auto standing = [&](int y, int x, int d) {
     const std::uint8_t* l = left_features.ptr<std::uint8_t>(y);
     const std::uint8_t* r = right_features.ptr<std::uint8_t>(y);
     if (l[x] == 0 || x - d - kHalf < 0) return false;
     const int cd = sadAt(l, r, x, d);
     if (cd > p.max_cost) return false;
-    std::uint16_t& lc = line_cost_.ptr<std::uint16_t>(y)[x];
-    if (lc == kUnknownCost) lc = static_cast<std::uint16_t>(std::min(lineCost(l, r, x, line), kUnknownCost - 1));
-    return cd + p.cost_margin < static_cast<int>(lc);
+    const int line_cost = reference ? lineCost(l, r, x, lineOffsetAt(ground, y, x))
+                                    : static_cast<int>(lineCostRow(y, left_features, right_features, ground)[x]);
+    return cd + p.cost_margin < line_cost;
   };
+  const float clearance = static_cast<float>(p.ground_clearance_px);
 
   for (int d = d_lo; d <= d_hi; ++d) {
     const double px_per_m = d / baseline_m;
@@ -133,8 +198,25 @@ int StandingPeopleFinder::compute(const cv::Mat& left_features, const cv::Mat& r
       window_bottom_[static_cast<std::size_t>(x)] = c < 0 ? -1 : c;
     }
     const float fd = static_cast<float>(d);
-    const float clearance = static_cast<float>(p.ground_clearance_px);
-    for (int y = y_lo; y < y_hi; ++y) {
+    // Every row_step-th image row (the same rows at every offset, so that the line's costs
+    // serve them all); the counts stand for row_step rows each.
+    const int step = p.row_step;
+    for (int x = x_begin; x < x_end && reference; ++x) {  // reference: column by column, pixel by pixel
+      const int c = contact[x];
+      if (c < 0) continue;
+      int count = 0, cells = 0;
+      for (int y = std::max(0, c - rows); y < c; ++y) {
+        if (y % step != 0) continue;
+        const float line = lineOffsetAt(ground, y, x);
+        if (!std::isfinite(line) || !clearOf(line, d, clearance)) continue;
+        ++cells;
+        if (labels.ptr<std::uint8_t>(y)[x] >= kLabelFirstObstacle) continue;
+        count += standing(y, x, d) ? 1 : 0;
+      }
+      column_count_[static_cast<std::size_t>(x)] = count;
+      column_cells_[static_cast<std::size_t>(x)] = cells;
+    }
+    for (int y = (y_lo + step - 1) / step * step; y < y_hi && !reference; y += step) {
       const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
       const std::uint8_t* l = left_features.ptr<std::uint8_t>(y);
       const std::uint8_t* r = right_features.ptr<std::uint8_t>(y);
@@ -156,10 +238,9 @@ int StandingPeopleFinder::compute(const cv::Mat& left_features, const cv::Mat& r
       }
       for (int x = x_begin; x < x_end; ++x)
         sad[x] = static_cast<std::uint16_t>(ad[x - 2] + ad[x - 1] + ad[x] + ad[x + 1] + ad[x + 2]);
-      const float line0 = row_line - row_slope * ground.reference_column - fd;  // line - d at x = 0
       const int max_cost = p.max_cost;
       for (int x = x_begin; x < x_end; ++x) {
-        const float off = line0 + row_slope * static_cast<float>(x);
+        const float off = row_line + row_slope * (static_cast<float>(x) - ground.reference_column) - fd;
         const int cell = static_cast<int>(y >= top[x]) & static_cast<int>(y < bottom[x]) &
                          static_cast<int>(std::fabs(off) > clearance);
         cells[x] += cell;
@@ -167,24 +248,11 @@ int StandingPeopleFinder::compute(const cv::Mat& left_features, const cv::Mat& r
                                             static_cast<int>(lab[x] < kLabelFirstObstacle) &
                                             static_cast<int>(static_cast<int>(sad[x]) <= max_cost));
       }
-      std::uint16_t* lc_row = line_cost_.ptr<std::uint16_t>(y);
-      for (int x = x_begin; x < x_end; ++x) {
-        if (x + 8 <= x_end) {  // most rows hold few candidates: skip them eight at a time
-          std::uint64_t eight = 0;
-          std::memcpy(&eight, cand + x, sizeof eight);
-          if (eight == 0) {
-            x += 7;
-            continue;
-          }
-        }
-        if (cand[x] == 0) continue;
-        std::uint16_t& lc = lc_row[x];
-        if (lc == kUnknownCost) {
-          const float line = row_line + row_slope * (static_cast<float>(x) - ground.reference_column);
-          lc = static_cast<std::uint16_t>(std::min(lineCost(l, r, x, line), kUnknownCost - 1));
-        }
-        if (static_cast<int>(sad[x]) + p.cost_margin < static_cast<int>(lc)) ++column_count_[static_cast<std::size_t>(x)];
-      }
+      const std::uint16_t* lc = lineCostRow(y, left_features, right_features, ground);
+      int* count = column_count_.data();
+      const int margin = p.cost_margin;
+      for (int x = x_begin; x < x_end; ++x)
+        count[x] += static_cast<int>(cand[x] != 0) & static_cast<int>(static_cast<int>(sad[x]) + margin < static_cast<int>(lc[x]));
     }
     // Windows of w columns; local maxima of the standing pixels above the thresholds.
     int sum = 0, sum_cells = 0;
@@ -202,7 +270,7 @@ int StandingPeopleFinder::compute(const cv::Mat& left_features, const cv::Mat& r
       win.offset = d;
       win.x0 = x - w + 1;
       win.x1 = x + 1;
-      win.pixels = sum;
+      win.pixels = sum * step;
       win.density = sum_cells > 0 ? static_cast<double>(sum) / sum_cells : 0.0;
       row_windows.push_back(win);
     }
@@ -255,15 +323,14 @@ int StandingPeopleFinder::compute(const cv::Mat& left_features, const cv::Mat& r
     column_count_.assign(static_cast<std::size_t>(width), 0);
     auto ambiguous = [&](int y, int x, float& line) {
       line = lineOffsetAt(ground, y, x);
-      return !std::isfinite(line) ||
-             static_cast<double>(std::abs(line - static_cast<float>(win.offset))) <= p.ground_clearance_px;
+      return !std::isfinite(line) || !clearOf(line, win.offset, clearance);
     };
     for (int y = top_limit; y <= bottom; ++y) {
       const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
       for (int x = bx0; x < bx1; ++x) {
         float line = 0.0f;
         if (lab[x] >= kLabelFirstObstacle || ambiguous(y, x, line)) continue;
-        if (standing(y, x, win.offset, line)) ++column_count_[static_cast<std::size_t>(x)];
+        if (standing(y, x, win.offset)) ++column_count_[static_cast<std::size_t>(x)];
       }
     }
     // Columns: at least two standing pixels and a quarter of the best column's.
@@ -286,7 +353,7 @@ int StandingPeopleFinder::compute(const cv::Mat& left_features, const cv::Mat& r
       int n = 0;
       for (int x = left; x <= right; ++x) {
         float line = 0.0f;
-        if (lab[x] < kLabelFirstObstacle && !ambiguous(y, x, line) && standing(y, x, win.offset, line)) ++n;
+        if (lab[x] < kLabelFirstObstacle && !ambiguous(y, x, line) && standing(y, x, win.offset)) ++n;
       }
       if (n > 0) {
         body_top = y;
@@ -305,7 +372,7 @@ int StandingPeopleFinder::compute(const cv::Mat& left_features, const cv::Mat& r
         float line = 0.0f;
         bool take = false;
         if (!ambiguous(y, x, line)) {
-          take = standing(y, x, win.offset, line);
+          take = standing(y, x, win.offset);
         } else {
           for (int e = win.offset - 1; e <= win.offset + 1 && !take; ++e)
             take = x - e >= 0 && std::abs(static_cast<int>(l[x]) - static_cast<int>(r[x - e])) <= p.grey_tolerance;

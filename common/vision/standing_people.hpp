@@ -40,6 +40,7 @@ struct StandingParams {
   int min_pixels = 30;             // fewest such pixels in a window
   int max_clusters = 4;            // clusters added per frame
   int grey_tolerance = 12;         // a feature joins the cluster when it matches at d +-1 within this
+  int row_step = 2;                // windows count every row_step-th row (a far person's rows are alike)
 
   template <class V>
   void visit(V& v) {
@@ -57,6 +58,7 @@ struct StandingParams {
     v.field("min_pixels", min_pixels, 1, 100000, "pixels", "fewest standing pixels in a window");
     v.field("max_clusters", max_clusters, 0, 64, "", "clusters added per frame");
     v.field("grey_tolerance", grey_tolerance, 0, 255, "grey levels", "grey difference of a cluster pixel's match");
+    v.field("row_step", row_step, 1, 8, "rows", "windows count every row_step-th row, each standing for row_step rows");
   }
   void validate() const;
 };
@@ -72,8 +74,15 @@ class StandingPeopleFinder {
   int compute(const cv::Mat& left_features, const cv::Mat& right_features, const GroundProfile& ground,
               double baseline_m, double focal_px, int max_obstacles, double max_range_m, cv::Mat& labels,
               std::vector<ObstacleCluster>& obstacles);
+  // The same, written plainly (pixel by pixel, column by column): identical results.
+  int computeReference(const cv::Mat& left_features, const cv::Mat& right_features, const GroundProfile& ground,
+                       double baseline_m, double focal_px, int max_obstacles, double max_range_m, cv::Mat& labels,
+                       std::vector<ObstacleCluster>& obstacles);
 
  private:
+  int run(const cv::Mat& left_features, const cv::Mat& right_features, const GroundProfile& ground, double baseline_m,
+          double focal_px, int max_obstacles, double max_range_m, cv::Mat& labels,
+          std::vector<ObstacleCluster>& obstacles, bool reference);
   struct Window {
     int offset = 0, x0 = 0, x1 = 0;  // columns [x0, x1)
     int pixels = 0;
@@ -81,7 +90,13 @@ class StandingPeopleFinder {
   };
   StandingParams params_;
   std::vector<int> contact_;         // per searched offset and column: contact row (-1: none)
-  cv::Mat line_cost_;                // CV_16UC1: a pixel's SAD at the line's offset, once per frame
+  // A row of line_cost_ (CV_16UC1: each pixel's 5-pixel SAD at the line's offset +-1),
+  // computed on the row's first use in a frame.
+  const std::uint16_t* lineCostRow(int y, const cv::Mat& left_features, const cv::Mat& right_features,
+                                   const GroundProfile& ground);
+  cv::Mat line_cost_;
+  std::vector<std::uint8_t> line_cost_ready_;  // per row
+  std::vector<int> line_round_;                // one row: the line's offset per column, rounded
   std::vector<int> column_count_;    // per column: standing pixels
   std::vector<int> column_cells_;    // per column: rows examined
   std::vector<int> window_top_, window_bottom_;  // per column: rows [top, bottom) of the current offset

@@ -41,6 +41,30 @@ bool objectFound(const SegmentationResult& r, const StereoPair& pair, std::size_
   return false;
 }
 
+// People at least min_distance_m away, and how many of them lie in a cluster of `with` and of
+// `without`: a cluster covering half of the person's box at its offset (+-1).
+struct FarPeopleTally {
+  int people = 0, found_with = 0, found_without = 0;
+};
+void tallyFarPeople(const StereoPair& pair, const SegmentationResult& with, const SegmentationResult& without,
+                    double min_distance_m, FarPeopleTally& tally) {
+  const SceneTruth& t = *pair.truth;
+  const double fb = pair.rig.focal_px * pair.rig.baseline_m;
+  auto inCluster = [](const std::vector<ObstacleCluster>& clusters, const cv::Rect& box, double offset) {
+    for (const ObstacleCluster& c : clusters)
+      if (std::abs(c.offset_px - offset) <= 1.0 && 2 * (c.box & box).area() >= box.area()) return true;
+    return false;
+  };
+  for (std::size_t k = 0; k < t.objects.size(); ++k) {
+    const ObjectLabel& o = t.objects[k];
+    if (o.type != "Pedestrian" || t.object_visible_px[k] <= 0 || o.location_m[2] < min_distance_m) continue;
+    const cv::Rect box = labelBox(o);
+    ++tally.people;
+    tally.found_with += inCluster(with.obstacles, box, fb / o.location_m[2]);
+    tally.found_without += inCluster(without.obstacles, box, fb / o.location_m[2]);
+  }
+}
+
 // Share of the truly visible ground rows (offset below D) whose found offset is within +-1.
 double groundRowsWithin1(const GroundProfile& g, const SceneTruth& t, int offsets) {
   int n = 0, ok = 0;
@@ -242,26 +266,12 @@ TEST(SyntheticObstacles, FarPeopleBelowTheObstacleThresholdsComeOutAsPersonSized
   off.obstacles.weak_peak_matches = 0;
   const SegmenterParams on;
   ASSERT_GT(on.obstacles.weak_peak_matches, 0);
-  int found_on = 0, found_off = 0, people = 0, added = 0;
+  FarPeopleTally tally;
+  int added = 0;
   for (std::uint64_t seed = 1; seed <= 50; ++seed) {
     const StereoPair pair = renderSyntheticScene(randomSceneParams(seed), seed);
-    const SceneTruth& t = *pair.truth;
     const SegmentationResult with = segment(pair, on), without = segment(pair, off);
-    const double fb = pair.rig.focal_px * pair.rig.baseline_m;
-    // A person is in a cluster when the cluster covers half of the person's box at its offset (+-1).
-    auto inCluster = [&](const std::vector<ObstacleCluster>& clusters, const cv::Rect& box, double offset) {
-      for (const ObstacleCluster& c : clusters)
-        if (std::abs(c.offset_px - offset) <= 1.0 && 2 * (c.box & box).area() >= box.area()) return true;
-      return false;
-    };
-    for (std::size_t k = 0; k < t.objects.size(); ++k) {
-      const ObjectLabel& o = t.objects[k];
-      if (o.type != "Pedestrian" || t.object_visible_px[k] <= 0 || o.location_m[2] < 25.0) continue;
-      const cv::Rect box = labelBox(o);
-      ++people;
-      found_on += inCluster(with.obstacles, box, fb / o.location_m[2]);
-      found_off += inCluster(without.obstacles, box, fb / o.location_m[2]);
-    }
+    tallyFarPeople(pair, with, without, 25.0, tally);
     // Every cluster the weak tier adds (no obstacle found without it overlaps it at its
     // offset) has a person's height and width at its offset.
     for (const ObstacleCluster& c : with.obstacles) {
@@ -277,8 +287,8 @@ TEST(SyntheticObstacles, FarPeopleBelowTheObstacleThresholdsComeOutAsPersonSized
     }
   }
   std::printf("people 25 m or farther in a cluster: %d/%d with the weak tier, %d/%d without; %d weak clusters\n",
-              found_on, people, found_off, people, added);
-  EXPECT_GT(found_on, found_off);
+              tally.found_with, tally.people, tally.found_without, tally.people, added);
+  EXPECT_GT(tally.found_with, tally.found_without);
   EXPECT_GT(added, 0);
 }
 
@@ -292,25 +302,13 @@ TEST(SyntheticObstacles, FarPeopleWithoutAClusterAreFoundStandingOnTheGround) {
   off.standing.enabled = false;
   const SegmenterParams on;
   ASSERT_TRUE(on.standing.enabled);
-  int found_on = 0, found_off = 0, people = 0, added = 0;
+  FarPeopleTally tally;
+  int added = 0;
   for (std::uint64_t seed = 1; seed <= 50; ++seed) {
     const StereoPair pair = renderSyntheticScene(randomSceneParams(seed), seed);
-    const SceneTruth& t = *pair.truth;
-    const SegmentationResult with = segment(pair, on), without = segment(pair, off);
     const double fb = pair.rig.focal_px * pair.rig.baseline_m;
-    auto inCluster = [&](const std::vector<ObstacleCluster>& clusters, const cv::Rect& box, double offset) {
-      for (const ObstacleCluster& c : clusters)
-        if (std::abs(c.offset_px - offset) <= 1.0 && 2 * (c.box & box).area() >= box.area()) return true;
-      return false;
-    };
-    for (std::size_t k = 0; k < t.objects.size(); ++k) {
-      const ObjectLabel& o = t.objects[k];
-      if (o.type != "Pedestrian" || t.object_visible_px[k] <= 0 || o.location_m[2] < 20.0) continue;
-      const cv::Rect box = labelBox(o);
-      ++people;
-      found_on += inCluster(with.obstacles, box, fb / o.location_m[2]);
-      found_off += inCluster(without.obstacles, box, fb / o.location_m[2]);
-    }
+    const SegmentationResult with = segment(pair, on), without = segment(pair, off);
+    tallyFarPeople(pair, with, without, 20.0, tally);
     // The stage appends its clusters after the loop's: the first ones are the same.
     ASSERT_GE(with.obstacles.size(), without.obstacles.size()) << "seed " << seed;
     for (std::size_t i = without.obstacles.size(); i < with.obstacles.size(); ++i) {
@@ -330,9 +328,45 @@ TEST(SyntheticObstacles, FarPeopleWithoutAClusterAreFoundStandingOnTheGround) {
     }
   }
   std::printf("people 20 m or farther in a cluster: %d/%d with the standing test, %d/%d without; %d clusters added\n",
-              found_on, people, found_off, people, added);
-  EXPECT_GT(found_on, found_off);
+              tally.found_with, tally.people, tally.found_without, tally.people, added);
+  EXPECT_GT(tally.found_with, tally.found_without);
   EXPECT_GT(added, 0);
+}
+
+// The standing test's vectorised path and its plain reference give the same clusters and
+// labels, on synthetic scenes where it adds clusters and on the real pairs.
+TEST(SyntheticObstacles, StandingTestMatchesItsReference) {
+  SegmenterParams serial;
+  serial.parallel = false;
+  const SegmenterParams parallel;
+  int added = 0;
+  auto compare = [&](const cv::Mat& left, const cv::Mat& right, const StereoRig& rig, const std::string& name) {
+    FeatureExtractor fx;
+    Segmenter a(serial), b(parallel);
+    SegmentationResult ra, rb;
+    segmentPair(fx, a, left, right, rig, ra);
+    segmentPair(fx, b, left, right, rig, rb);
+    ASSERT_TRUE(test::sameBits(ra.labels, rb.labels)) << name;
+    ASSERT_EQ(ra.obstacles.size(), rb.obstacles.size()) << name;
+    for (std::size_t k = 0; k < ra.obstacles.size(); ++k) {
+      EXPECT_EQ(ra.obstacles[k].box, rb.obstacles[k].box) << name;
+      EXPECT_EQ(ra.obstacles[k].offset_px, rb.obstacles[k].offset_px) << name;
+      EXPECT_EQ(ra.obstacles[k].feature_count, rb.obstacles[k].feature_count) << name;
+    }
+    SegmenterParams off;
+    off.standing.enabled = false;
+    FeatureExtractor fx2;
+    Segmenter c(off);
+    SegmentationResult rc;
+    segmentPair(fx2, c, left, right, rig, rc);
+    added += static_cast<int>(rb.obstacles.size()) - static_cast<int>(rc.obstacles.size());
+  };
+  for (const std::uint64_t seed : {1057u, 1065u, 1016u, 1053u}) {
+    const StereoPair pair = renderSyntheticScene(randomSceneParams(seed), seed);
+    compare(pair.left, pair.right, pair.rig, "seed " + std::to_string(seed));
+  }
+  for (const test::RealPair& r : test::loadKittiRigPairs()) compare(r.left, r.right, r.rig, r.name);
+  EXPECT_GT(added, 0) << "the scenes must exercise the stage";
 }
 
 // Ground and background alone, on flat and sloped terrain: the standing test adds nothing.
