@@ -139,24 +139,27 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
   // ground offset reaches d (-1: none). One walk down each column serves all offsets.
   contact_.assign(static_cast<std::size_t>(n_offsets) * static_cast<std::size_t>(width), -1);
   const int first_ground_row = std::max(ground.horizon_row, 0);
-  for (int x = 0; x < width && reference; ++x) {  // reference: a walk per offset
-    for (int d = d_lo; d <= d_hi; ++d) {
-      for (int y = first_ground_row; y < height; ++y) {
-        const float g = ground.groundOffsetAt(y, static_cast<float>(x));
-        if (std::isfinite(g) && g >= static_cast<float>(d) - 0.5f) {
-          contact_[static_cast<std::size_t>(d - d_lo) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)] = y;
-          break;
+  auto contactAt = [&](int d, int x) -> int& {
+    return contact_[static_cast<std::size_t>(d - d_lo) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)];
+  };
+  for (int x = 0; x < width; ++x) {
+    if (reference) {  // a walk per offset
+      for (int d = d_lo; d <= d_hi; ++d) {
+        for (int y = first_ground_row; y < height; ++y) {
+          const float g = ground.groundOffsetAt(y, static_cast<float>(x));
+          if (std::isfinite(g) && g >= static_cast<float>(d) - 0.5f) {
+            contactAt(d, x) = y;
+            break;
+          }
         }
       }
+      continue;
     }
-  }
-  for (int x = 0; x < width && !reference; ++x) {
     int d = d_lo;
     for (int y = first_ground_row; y < height && d <= d_hi; ++y) {
       const float g = ground.groundOffsetAt(y, static_cast<float>(x));
       if (!std::isfinite(g)) continue;
-      for (; d <= d_hi && g >= static_cast<float>(d) - 0.5f; ++d)
-        contact_[static_cast<std::size_t>(d - d_lo) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)] = y;
+      for (; d <= d_hi && g >= static_cast<float>(d) - 0.5f; ++d) contactAt(d, x) = y;
     }
   }
   // The line's cost of a pixel does not depend on d: computed on first use, kept for the frame.
@@ -184,75 +187,76 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
     const int w = std::max(3, static_cast<int>(std::lround(p.window_width_m * px_per_m)));
     const int* contact = contact_.data() + static_cast<std::size_t>(d - d_lo) * static_cast<std::size_t>(width);
     const int x_begin = d + kHalf + 2, x_end = width - kHalf;
-    int y_lo = height, y_hi = -1;
-    for (int x = x_begin; x < x_end; ++x) {
-      if (contact[x] < 0) continue;
-      y_lo = std::min(y_lo, std::max(0, contact[x] - rows));
-      y_hi = std::max(y_hi, contact[x]);
-    }
     std::fill(column_count_.begin(), column_count_.end(), 0);
     std::fill(column_cells_.begin(), column_cells_.end(), 0);
-    for (int x = 0; x < width; ++x) {
-      const int c = contact[x];
-      window_top_[static_cast<std::size_t>(x)] = c < 0 ? height : c - rows;  // rows [top, bottom)
-      window_bottom_[static_cast<std::size_t>(x)] = c < 0 ? -1 : c;
-    }
-    const float fd = static_cast<float>(d);
     // Every row_step-th image row (the same rows at every offset, so that the line's costs
     // serve them all); the counts stand for row_step rows each.
     const int step = p.row_step;
-    for (int x = x_begin; x < x_end && reference; ++x) {  // reference: column by column, pixel by pixel
-      const int c = contact[x];
-      if (c < 0) continue;
-      int count = 0, cells = 0;
-      for (int y = std::max(0, c - rows); y < c; ++y) {
-        if (y % step != 0) continue;
-        const float line = lineOffsetAt(ground, y, x);
-        if (!std::isfinite(line) || !clearOf(line, d, clearance)) continue;
-        ++cells;
-        if (labels.ptr<std::uint8_t>(y)[x] >= kLabelFirstObstacle) continue;
-        count += standing(y, x, d) ? 1 : 0;
-      }
-      column_count_[static_cast<std::size_t>(x)] = count;
-      column_cells_[static_cast<std::size_t>(x)] = cells;
-    }
-    for (int y = (y_lo + step - 1) / step * step; y < y_hi && !reference; y += step) {
-      const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
-      const std::uint8_t* l = left_features.ptr<std::uint8_t>(y);
-      const std::uint8_t* r = right_features.ptr<std::uint8_t>(y);
-      const bool background = y < ground.horizon_row;
-      const float row_line = background ? ground.background_offset : ground.offset_per_row[static_cast<std::size_t>(y)];
-      const float row_slope = background ? 0.0f : ground.offsetPerColumnAt(y);
-      if (!std::isfinite(row_line)) continue;
-      // Written for the auto-vectoriser: the absolute differences at d, their 5-pixel sums,
-      // then the cells of the windows and the pixels worth the line's cost.
-      std::uint8_t* ad = diff_.data();
-      std::uint16_t* sad = sad_.data();
-      std::uint8_t* cand = candidate_.data();
-      int* cells = column_cells_.data();
-      const int* top = window_top_.data();
-      const int* bottom = window_bottom_.data();
-      for (int x = d; x < width; ++x) {
-        const int a = static_cast<int>(l[x]) - static_cast<int>(r[x - d]);
-        ad[x] = static_cast<std::uint8_t>(a < 0 ? -a : a);
-      }
-      for (int x = x_begin; x < x_end; ++x)
-        sad[x] = static_cast<std::uint16_t>(ad[x - 2] + ad[x - 1] + ad[x] + ad[x + 1] + ad[x + 2]);
-      const int max_cost = p.max_cost;
+    if (reference) {  // column by column, pixel by pixel
       for (int x = x_begin; x < x_end; ++x) {
-        const float off = row_line + row_slope * (static_cast<float>(x) - ground.reference_column) - fd;
-        const int cell = static_cast<int>(y >= top[x]) & static_cast<int>(y < bottom[x]) &
-                         static_cast<int>(std::fabs(off) > clearance);
-        cells[x] += cell;
-        cand[x] = static_cast<std::uint8_t>(cell & static_cast<int>(l[x] != 0) &
-                                            static_cast<int>(lab[x] < kLabelFirstObstacle) &
-                                            static_cast<int>(static_cast<int>(sad[x]) <= max_cost));
+        const int c = contact[x];
+        if (c < 0) continue;
+        int count = 0, cells = 0;
+        for (int y = std::max(0, c - rows); y < c; ++y) {
+          if (y % step != 0) continue;
+          const float line = lineOffsetAt(ground, y, x);
+          if (!std::isfinite(line) || !clearOf(line, d, clearance)) continue;
+          ++cells;
+          if (labels.ptr<std::uint8_t>(y)[x] >= kLabelFirstObstacle) continue;
+          count += standing(y, x, d) ? 1 : 0;
+        }
+        column_count_[static_cast<std::size_t>(x)] = count;
+        column_cells_[static_cast<std::size_t>(x)] = cells;
       }
-      const std::uint16_t* lc = lineCostRow(y, left_features, right_features, ground);
-      int* count = column_count_.data();
-      const int margin = p.cost_margin;
-      for (int x = x_begin; x < x_end; ++x)
-        count[x] += static_cast<int>(cand[x] != 0) & static_cast<int>(static_cast<int>(sad[x]) + margin < static_cast<int>(lc[x]));
+    } else {  // row by row, over the rows some column's window covers
+      int y_lo = height, y_hi = -1;
+      for (int x = 0; x < width; ++x) {
+        const int c = contact[x];
+        window_top_[static_cast<std::size_t>(x)] = c < 0 ? height : c - rows;  // rows [top, bottom)
+        window_bottom_[static_cast<std::size_t>(x)] = c < 0 ? -1 : c;
+        if (c < 0 || x < x_begin || x >= x_end) continue;
+        y_lo = std::min(y_lo, std::max(0, c - rows));
+        y_hi = std::max(y_hi, c);
+      }
+      const float fd = static_cast<float>(d);
+      for (int y = (y_lo + step - 1) / step * step; y < y_hi; y += step) {
+        const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+        const std::uint8_t* l = left_features.ptr<std::uint8_t>(y);
+        const std::uint8_t* r = right_features.ptr<std::uint8_t>(y);
+        const bool background = y < ground.horizon_row;
+        const float row_line = background ? ground.background_offset : ground.offset_per_row[static_cast<std::size_t>(y)];
+        const float row_slope = background ? 0.0f : ground.offsetPerColumnAt(y);
+        if (!std::isfinite(row_line)) continue;
+        // Written for the auto-vectoriser: the absolute differences at d, their 5-pixel sums,
+        // then the cells of the windows and the pixels worth the line's cost.
+        std::uint8_t* ad = diff_.data();
+        std::uint16_t* sad = sad_.data();
+        std::uint8_t* cand = candidate_.data();
+        int* cells = column_cells_.data();
+        const int* top = window_top_.data();
+        const int* bottom = window_bottom_.data();
+        for (int x = d; x < width; ++x) {
+          const int a = static_cast<int>(l[x]) - static_cast<int>(r[x - d]);
+          ad[x] = static_cast<std::uint8_t>(a < 0 ? -a : a);
+        }
+        for (int x = x_begin; x < x_end; ++x)
+          sad[x] = static_cast<std::uint16_t>(ad[x - 2] + ad[x - 1] + ad[x] + ad[x + 1] + ad[x + 2]);
+        const int max_cost = p.max_cost;
+        for (int x = x_begin; x < x_end; ++x) {
+          const float off = row_line + row_slope * (static_cast<float>(x) - ground.reference_column) - fd;
+          const int cell = static_cast<int>(y >= top[x]) & static_cast<int>(y < bottom[x]) &
+                           static_cast<int>(std::fabs(off) > clearance);
+          cells[x] += cell;
+          cand[x] = static_cast<std::uint8_t>(cell & static_cast<int>(l[x] != 0) &
+                                              static_cast<int>(lab[x] < kLabelFirstObstacle) &
+                                              static_cast<int>(static_cast<int>(sad[x]) <= max_cost));
+        }
+        const std::uint16_t* lc = lineCostRow(y, left_features, right_features, ground);
+        int* count = column_count_.data();
+        const int margin = p.cost_margin;
+        for (int x = x_begin; x < x_end; ++x)
+          count[x] += static_cast<int>(cand[x] != 0) & static_cast<int>(static_cast<int>(sad[x]) + margin < static_cast<int>(lc[x]));
+      }
     }
     // Windows of w columns; local maxima of the standing pixels above the thresholds.
     int sum = 0, sum_cells = 0;
@@ -298,8 +302,7 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
     if (taken) continue;
     const double px_per_m = win.offset / baseline_m;
     const int xc = (win.x0 + win.x1) / 2;
-    const int c =
-        contact_[static_cast<std::size_t>(win.offset - d_lo) * static_cast<std::size_t>(width) + static_cast<std::size_t>(xc)];
+    const int c = contactAt(win.offset, xc);
     if (c < 0) continue;
     const int rows = std::max(4, static_cast<int>(std::lround(p.window_height_m * px_per_m)));
     const cv::Rect window_box(win.x0, std::max(0, c - rows), win.x1 - win.x0, c - std::max(0, c - rows) + 1);
@@ -321,15 +324,14 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
     const int top_limit = std::max(0, c - static_cast<int>(std::lround(2.1 * px_per_m)));
     const int bottom = std::min(c, height - 1);
     column_count_.assign(static_cast<std::size_t>(width), 0);
-    auto ambiguous = [&](int y, int x, float& line) {
-      line = lineOffsetAt(ground, y, x);
+    auto ambiguous = [&](int y, int x) {
+      const float line = lineOffsetAt(ground, y, x);
       return !std::isfinite(line) || !clearOf(line, win.offset, clearance);
     };
     for (int y = top_limit; y <= bottom; ++y) {
       const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
       for (int x = bx0; x < bx1; ++x) {
-        float line = 0.0f;
-        if (lab[x] >= kLabelFirstObstacle || ambiguous(y, x, line)) continue;
+        if (lab[x] >= kLabelFirstObstacle || ambiguous(y, x)) continue;
         if (standing(y, x, win.offset)) ++column_count_[static_cast<std::size_t>(x)];
       }
     }
@@ -352,8 +354,7 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
       const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
       int n = 0;
       for (int x = left; x <= right; ++x) {
-        float line = 0.0f;
-        if (lab[x] < kLabelFirstObstacle && !ambiguous(y, x, line) && standing(y, x, win.offset)) ++n;
+        if (lab[x] < kLabelFirstObstacle && !ambiguous(y, x) && standing(y, x, win.offset)) ++n;
       }
       if (n > 0) {
         body_top = y;
@@ -369,9 +370,8 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
       const std::uint8_t* r = right_features.ptr<std::uint8_t>(y);
       for (int x = left; x <= right; ++x) {
         if (l[x] == 0 || lab[x] >= kLabelFirstObstacle) continue;
-        float line = 0.0f;
         bool take = false;
-        if (!ambiguous(y, x, line)) {
+        if (!ambiguous(y, x)) {
           take = standing(y, x, win.offset);
         } else {
           for (int e = win.offset - 1; e <= win.offset + 1 && !take; ++e)
