@@ -278,9 +278,21 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
       win.density = sum_cells > 0 ? static_cast<double>(sum) / sum_cells : 0.0;
       row_windows.push_back(win);
     }
+    // A figure stands out from the other windows of its offset: those on a structure at that
+    // offset (a wall, a fence, ground texture the line fits poorly) are alike, and lift the
+    // mean and the spread together.
+    double sum_pixels = 0.0, sum_squares = 0.0;
+    for (const Window& win : row_windows) {
+      sum_pixels += win.pixels;
+      sum_squares += static_cast<double>(win.pixels) * win.pixels;
+    }
+    const double n_windows = std::max(1.0, static_cast<double>(row_windows.size()));
+    const double mean = sum_pixels / n_windows;
+    const double spread = std::sqrt(std::max(0.0, sum_squares / n_windows - mean * mean));
+    const double least_pixels = mean + p.min_zscore * spread;
     for (std::size_t i = 0; i < row_windows.size(); ++i) {
       const Window& win = row_windows[i];
-      if (win.pixels < p.min_pixels || win.density < p.min_density) continue;
+      if (win.pixels < p.min_pixels || win.density < p.min_density || win.pixels < least_pixels) continue;
       const bool left_higher = i > 0 && row_windows[i - 1].pixels > win.pixels;
       const bool right_higher = i + 1 < row_windows.size() && row_windows[i + 1].pixels >= win.pixels;
       if (!left_higher && !right_higher) windows_.push_back(win);
@@ -289,7 +301,12 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
 
   // Strongest first; one window per figure (neighbouring offsets see the same one), none on
   // an obstacle already found.
-  std::stable_sort(windows_.begin(), windows_.end(), [](const Window& a, const Window& b) { return a.pixels > b.pixels; });
+  // (Equal counts keep the order they were found in, offset then column: the same order as a
+  // stable sort, without its buffer.)
+  std::sort(windows_.begin(), windows_.end(), [](const Window& a, const Window& b) {
+    if (a.pixels != b.pixels) return a.pixels > b.pixels;
+    return a.offset != b.offset ? a.offset < b.offset : a.x0 < b.x0;
+  });
   accepted_.clear();
   int added = 0;
   for (const Window& win : windows_) {
@@ -335,20 +352,21 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
         if (standing(y, x, win.offset)) ++column_count_[static_cast<std::size_t>(x)];
       }
     }
-    // Columns: at least two standing pixels and a quarter of the best column's.
-    int best_column = 0;
-    for (int x = bx0; x < bx1; ++x) best_column = std::max(best_column, column_count_[static_cast<std::size_t>(x)]);
+    // Columns: the unbroken run around the best column of those holding at least two standing
+    // pixels and a quarter of the best column's. A figure is one run; chance matches on the
+    // textured surround beside it are cut off from it by columns that fall short.
+    int peak = bx0;
+    for (int x = bx0; x < bx1; ++x)
+      if (column_count_[static_cast<std::size_t>(x)] > column_count_[static_cast<std::size_t>(peak)]) peak = x;
+    const int best_column = bx0 < bx1 ? column_count_[static_cast<std::size_t>(peak)] : 0;
     const int min_column = std::max(2, best_column / 4);
-    int left = bx1, right = bx0 - 1;
-    for (int x = bx0; x < bx1; ++x) {
-      if (column_count_[static_cast<std::size_t>(x)] < min_column) continue;
-      left = std::min(left, x);
-      right = std::max(right, x);
-    }
-    if (right < left) continue;
+    if (best_column < min_column) continue;
+    int left = peak, right = peak;
+    while (left - 1 >= bx0 && column_count_[static_cast<std::size_t>(left - 1)] >= min_column) --left;
+    while (right + 1 < bx1 && column_count_[static_cast<std::size_t>(right + 1)] >= min_column) ++right;
     // Top: up from the contact, over rows holding standing pixels in those columns, across
-    // gaps of at most max_gap rows (chance matches above the head stay out).
-    const int max_gap = std::max(2, static_cast<int>(std::lround(0.1 * px_per_m)));
+    // gaps of at most top_gap_m (a plain shirt; chance matches above the head stay out).
+    const int max_gap = std::max(2, static_cast<int>(std::lround(p.top_gap_m * px_per_m)));
     int body_top = bottom, gap = 0;
     for (int y = bottom; y >= top_limit; --y) {
       const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);

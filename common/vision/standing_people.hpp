@@ -36,8 +36,10 @@ struct StandingParams {
   double ground_clearance_px = 2.0;  // rows whose line offset is within this of d are left out
   int cost_margin = 20;            // 5-pixel SAD at d must beat the line's by this (grey levels)
   int max_cost = 40;               // 5-pixel SAD at d at most this (grey levels)
-  double min_density = 0.3;        // share of the window's rows x columns holding such pixels
+  double min_density = 0.15;       // share of the window's rows x columns holding such pixels
   int min_pixels = 30;             // fewest such pixels in a window
+  double min_zscore = 6.0;         // standard deviations above the mean window of its offset
+  double top_gap_m = 0.2;          // rows without standing pixels a figure's top is followed across
   int max_clusters = 4;            // clusters added per frame
   int grey_tolerance = 12;         // a feature joins the cluster when it matches at d +-1 within this
   int row_step = 2;                // windows count every row_step-th row (a far person's rows are alike)
@@ -56,6 +58,11 @@ struct StandingParams {
     v.field("max_cost", max_cost, 0, 1275, "grey levels", "largest 5-pixel SAD at d that matches");
     v.field("min_density", min_density, 0.0, 1.0, "", "share of the window's cells standing at d");
     v.field("min_pixels", min_pixels, 1, 100000, "pixels", "fewest standing pixels in a window");
+    v.field("min_zscore", min_zscore, 0.0, 100.0, "",
+            "a window's standing pixels exceed the mean over all windows of its offset by this many standard "
+            "deviations (a figure stands out; a structure at that offset does not)");
+    v.field("top_gap_m", top_gap_m, 0.0, 1.0, "metres",
+            "gap in the standing pixels (a plain shirt) a cluster's top is followed up across");
     v.field("max_clusters", max_clusters, 0, 64, "", "clusters added per frame");
     v.field("grey_tolerance", grey_tolerance, 0, 255, "grey levels", "grey difference of a cluster pixel's match");
     v.field("row_step", row_step, 1, 8, "rows", "windows count every row_step-th row, each standing for row_step rows");

@@ -81,7 +81,8 @@ bool ignoredPerson(const ObjectLabel& l) {
   return !counted(l) && (l.type == "Pedestrian" || l.type == "Cyclist" || l.type == "Person_sitting");
 }
 
-// The protocol's figures over every detection (no score threshold).
+// The protocol's figures over every detection (no score threshold); detections the protocol
+// ignores (on people it does not count, lower than 25 px) are not scored.
 struct Scored {
   int ground_truth = 0, detections = 0, true_positives = 0, false_positives = 0;
   std::vector<double> distance_errors;  // |Z - Z_label| / Z_label of the true positives
@@ -95,7 +96,6 @@ void score(const std::vector<ObjectLabel>& labels, std::vector<Detection> dets, 
   std::stable_sort(dets.begin(), dets.end(), [](const Detection& a, const Detection& b) { return a.score > b.score; });
   std::vector<char> taken(labels.size(), 0);
   for (const ObjectLabel& l : labels) s.ground_truth += counted(l) ? 1 : 0;
-  s.detections += static_cast<int>(dets.size());
   for (const Detection& d : dets) {
     int outcome = 0;  // 0 false positive, 1 true positive, 2 ignored
     for (const bool want_counted : {true, false}) {
@@ -120,6 +120,7 @@ void score(const std::vector<ObjectLabel>& labels, std::vector<Detection> dets, 
       break;
     }
     if (outcome == 0 && d.box[3] - d.box[1] < 25.0) outcome = 2;
+    s.detections += outcome != 2 ? 1 : 0;  // ignored detections are not scored at all
     s.true_positives += outcome == 1 ? 1 : 0;
     s.false_positives += outcome == 0 ? 1 : 0;
   }
