@@ -352,16 +352,22 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
         if (standing(y, x, win.offset)) ++column_count_[static_cast<std::size_t>(x)];
       }
     }
-    // Columns: the unbroken run around the best column of those holding at least two standing
-    // pixels and a quarter of the best column's. A figure is one run; chance matches on the
-    // textured surround beside it are cut off from it by columns that fall short.
-    int peak = bx0;
-    for (int x = bx0; x < bx1; ++x)
-      if (column_count_[static_cast<std::size_t>(x)] > column_count_[static_cast<std::size_t>(peak)]) peak = x;
-    const int best_column = bx0 < bx1 ? column_count_[static_cast<std::size_t>(peak)] : 0;
+    // Columns: from the first to the last column within half a window of it holding at least
+    // half the best column's standing pixels (a figure's outline; a plain interior between its
+    // sides holds few), then outwards over the unbroken run of those holding at least two and a
+    // quarter of the best column's. Chance matches on the textured surround beside a figure are
+    // cut off from it by the columns between that fall short.
+    int best_column = 0;
+    for (int x = bx0; x < bx1; ++x) best_column = std::max(best_column, column_count_[static_cast<std::size_t>(x)]);
     const int min_column = std::max(2, best_column / 4);
-    if (best_column < min_column) continue;
-    int left = peak, right = peak;
+    const int strong_column = std::max(min_column, (best_column + 1) / 2);
+    int left = bx1, right = bx0 - 1;
+    for (int x = bx0; x < bx1; ++x) {
+      if (column_count_[static_cast<std::size_t>(x)] < strong_column) continue;
+      left = std::min(left, x);
+      right = std::max(right, x);
+    }
+    if (right < left) continue;
     while (left - 1 >= bx0 && column_count_[static_cast<std::size_t>(left - 1)] >= min_column) --left;
     while (right + 1 < bx1 && column_count_[static_cast<std::size_t>(right + 1)] >= min_column) ++right;
     // Top: up from the contact, over rows holding standing pixels in those columns, across

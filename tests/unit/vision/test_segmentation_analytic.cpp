@@ -412,5 +412,46 @@ TEST(SegmenterAnalytic, DifferentSizesAreRejected) {
                InputError);
 }
 
+// The standing test of far people (vision/standing_people.hpp) on its own: the obstacle loop
+// examines no candidate, so whatever stands at a far offset is left to it. A figure-sized
+// textured box 28 m away stands far above the other windows of its offset and becomes a
+// cluster; a 10 m wide textured wall at the same distance lifts a quarter of them, the mean
+// and the spread with it, and none of its windows is a figure. Without the comparison with
+// the other windows (min_zscore 0) the wall is taken for people.
+TEST(StandingAnalytic, AFigureStandsOutAndAWallAtItsOffsetDoesNot) {
+  AnalyticSceneParams sp;
+  sp.width = 1242;
+  sp.height = 375;
+  sp.focal_px = 721.0;
+  auto standingClusters = [&](const test::AnalyticScene& scene, double min_zscore) {
+    SegmenterParams p = paramsFor(128);
+    p.obstacles.max_iterations = 0;
+    p.standing.min_zscore = min_zscore;
+    FeatureExtractor fx;
+    Segmenter seg(p);
+    SegmentationResult r;
+    segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+    EXPECT_EQ(r.ground.source, GroundSource::kHough);
+    return r.obstacles;
+  };
+  const double defaults = StandingParams{}.min_zscore;
+  ASSERT_GT(defaults, 0.0);
+
+  sp.boxes = {AnalyticBox{-3.0, 28.0, 0.5, 1.7}};
+  const auto figure = renderAnalyticScene(sp);
+  const auto found = standingClusters(figure, defaults);
+  ASSERT_EQ(found.size(), 1u) << "the figure " << figure.box_rects[0];
+  EXPECT_NEAR(found[0].offset_px, figure.box_offsets[0], 1.0);
+  EXPECT_GE(test::iou(found[0].box, figure.box_rects[0]), 0.5) << found[0].box << " against " << figure.box_rects[0];
+
+  sp.boxes = {AnalyticBox{2.0, 28.0, 10.0, 1.7}};
+  const auto wall = renderAnalyticScene(sp);
+  EXPECT_TRUE(standingClusters(wall, defaults).empty()) << "the wall " << wall.box_rects[0];
+  const auto taken = standingClusters(wall, 0.0);
+  ASSERT_FALSE(taken.empty()) << "without the comparison the wall's windows are figures";
+  for (const ObstacleCluster& c : taken)
+    EXPECT_GE((c.box & wall.box_rects[0]).area() * 2, c.box.area()) << c.box << " is not on the wall";
+}
+
 }  // namespace
 }  // namespace sg
