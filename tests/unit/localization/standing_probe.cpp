@@ -4,12 +4,18 @@
 // at that offset clearly better than at the ground/background line's offset
 // (MARGIN, ABSMAX: the SAD margin and ceiling); the person's best window against
 // every other window of its width on the same rows. On the grey images, or with
-// FEAT=1 on the feature images (what the segmentation sees).
+// FEAT=1 on the feature images (what the segmentation sees). PLOT=DIR writes, per person, the
+// left image over the person's rows above a plot of the window counts across the row, with
+// their mean and the mean + ZSCORE (6) standard deviations.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 #include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "io/evaluation.hpp"
 #include "synthetic_detection.hpp"
@@ -111,6 +117,41 @@ int main(int argc, char** argv) {
       top1 += above == 0;
       top3 += above <= 2 * w;  // at most a couple of windows' worth of columns
       snrs.push_back(snr);
+      if (const char* dir = std::getenv("PLOT")) {
+        const double z = std::getenv("ZSCORE") ? std::atof(std::getenv("ZSCORE")) : 6.0;
+        const int strip_top = std::max(0, top - 10), strip_bottom = std::min(p0.left.rows, bottom + 10);
+        cv::Mat strip;
+        cv::cvtColor(p0.left.rowRange(strip_top, strip_bottom), strip, cv::COLOR_GRAY2BGR);
+        cv::rectangle(strip, cv::Rect(static_cast<int>(l.box[0]), static_cast<int>(l.box[1]) - strip_top,
+                                      static_cast<int>(l.box[2] - l.box[0]) + 1, static_cast<int>(l.box[3] - l.box[1]) + 1),
+                      cv::Scalar(0, 200, 255), 1);
+        const int plot_h = 160, headroom = 20;
+        cv::Mat plot(plot_h, W, CV_8UC3, cv::Scalar(255, 255, 255));
+        const double top_value = std::max({static_cast<double>(person), m + z * sd, 1.0}) * 1.1;
+        auto rowOf = [&](double v) { return plot_h - 1 - static_cast<int>(std::lround(v / top_value * (plot_h - headroom))); };
+        // The person's columns (windows ending inside its box widened by half a window).
+        cv::rectangle(plot, cv::Rect(static_cast<int>(l.box[0]), 0, static_cast<int>(l.box[2] - l.box[0]) + 1, plot_h),
+                      cv::Scalar(200, 240, 255), cv::FILLED);
+        // Each window drawn at its centre column (win[x] is the window ending at x).
+        for (int x = w; x < W; ++x)
+          cv::line(plot, {x - 1 - w / 2, rowOf(win[static_cast<std::size_t>(x - 1)])},
+                   {x - w / 2, rowOf(win[static_cast<std::size_t>(x)])}, cv::Scalar(60, 60, 60), 1);
+        cv::line(plot, {0, rowOf(m)}, {W - 1, rowOf(m)}, cv::Scalar(200, 120, 0), 1);
+        cv::line(plot, {0, rowOf(m + z * sd)}, {W - 1, rowOf(m + z * sd)}, cv::Scalar(0, 0, 220), 1);
+        char caption[200];
+        std::snprintf(caption, sizeof caption,
+                      "seed %llu: person %.1f m away, offset %d, box shaded; standing pixels per %d-column window; "
+                      "off objects mean %.1f (blue), + %.0f sd %.1f (red); person %d",
+                      static_cast<unsigned long long>(seed), l.location_m[2], d, w, m, z, m + z * sd, person);
+        cv::Mat band(22, W, CV_8UC3, cv::Scalar(255, 255, 255));
+        cv::putText(band, caption, {6, 15}, cv::FONT_HERSHEY_SIMPLEX, 0.42, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+        cv::Mat both;
+        cv::vconcat(std::vector<cv::Mat>{strip, band, plot}, both);
+        const std::string file = std::string(dir) + "/standing_windows_" + std::to_string(seed) + "_" +
+                                 std::to_string(static_cast<int>(std::lround(l.location_m[2]))) + "m.png";
+        cv::imwrite(file, both);
+        std::printf("wrote %s\n", file.c_str());
+      }
       std::printf("seed %llu z %5.1f d %2d rows %3d w %2d person %4d (%.2f/px) others max-ish p99.9 %4d mean %.1f sd %.1f snr %5.1f above %d\n",
                   static_cast<unsigned long long>(seed), l.location_m[2], d, rows_used, w, person,
                   double(person) / (w * std::max(1, rows_used)), p999, m, sd, snr, above);
