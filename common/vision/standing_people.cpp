@@ -180,10 +180,14 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
     return cd + p.cost_margin < line_cost;
   };
   const float clearance = static_cast<float>(p.ground_clearance_px);
+  // Rows a window at offset d examines above its contact row (a person's height).
+  auto windowRows = [&](int d) {
+    return std::max(4, static_cast<int>(std::lround(p.window_height_m * (d / baseline_m))));
+  };
 
   for (int d = d_lo; d <= d_hi; ++d) {
     const double px_per_m = d / baseline_m;
-    const int rows = std::max(4, static_cast<int>(std::lround(p.window_height_m * px_per_m)));
+    const int rows = windowRows(d);
     const int w = std::max(3, static_cast<int>(std::lround(p.window_width_m * px_per_m)));
     const int* contact = contact_.data() + static_cast<std::size_t>(d - d_lo) * static_cast<std::size_t>(width);
     const int x_begin = d + kHalf + 2, x_end = width - kHalf;
@@ -258,8 +262,12 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
           count[x] += static_cast<int>(cand[x] != 0) & static_cast<int>(static_cast<int>(sad[x]) + margin < static_cast<int>(lc[x]));
       }
     }
-    // Windows of w columns; local maxima of the standing pixels above the thresholds.
+    // Windows of w columns; local maxima of the standing pixels above the thresholds. A figure
+    // stands out from the other windows of its offset: those on a structure at that offset (a
+    // wall, a fence, ground texture the line fits poorly) are alike, and lift the mean and the
+    // spread together.
     int sum = 0, sum_cells = 0;
+    double sum_pixels = 0.0, sum_squares = 0.0;
     std::vector<Window>& row_windows = row_windows_;
     row_windows.clear();
     for (int x = x_begin; x < x_end; ++x) {
@@ -277,12 +285,6 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
       win.pixels = sum * step;
       win.density = sum_cells > 0 ? static_cast<double>(sum) / sum_cells : 0.0;
       row_windows.push_back(win);
-    }
-    // A figure stands out from the other windows of its offset: those on a structure at that
-    // offset (a wall, a fence, ground texture the line fits poorly) are alike, and lift the
-    // mean and the spread together.
-    double sum_pixels = 0.0, sum_squares = 0.0;
-    for (const Window& win : row_windows) {
       sum_pixels += win.pixels;
       sum_squares += static_cast<double>(win.pixels) * win.pixels;
     }
@@ -321,7 +323,7 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
     const int xc = (win.x0 + win.x1) / 2;
     const int c = contactAt(win.offset, xc);
     if (c < 0) continue;
-    const int rows = std::max(4, static_cast<int>(std::lround(p.window_height_m * px_per_m)));
+    const int rows = windowRows(win.offset);
     const cv::Rect window_box(win.x0, std::max(0, c - rows), win.x1 - win.x0, c - std::max(0, c - rows) + 1);
     bool on_obstacle = false;
     for (const ObstacleCluster& o : obstacles) {
@@ -331,10 +333,10 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
     if (on_obstacle) continue;
     accepted_.push_back(win);
 
-    // The cluster, in two passes. First the standing pixels within half a window of it, up
-    // to a tall person's height above the contact row; its columns are those holding at least
-    // two of them. Then, inside those columns only, the features of the rows near the contact
-    // where the line cannot tell (the legs) that match the offset +-1.
+    // The cluster: the standing pixels within half a window of it, up to a tall person's
+    // height above the contact row, give its columns and its top; inside those, its pixels are
+    // the standing ones plus, on the rows near the contact where the line cannot tell (the
+    // legs), the features that match the offset +-1.
     const int label = kLabelFirstObstacle + static_cast<int>(obstacles.size());
     const int reach = (win.x1 - win.x0) / 2;
     const int bx0 = std::max(win.offset + kHalf + 2, win.x0 - reach), bx1 = std::min(width - kHalf, win.x1 + reach);
