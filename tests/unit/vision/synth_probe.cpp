@@ -26,6 +26,14 @@ int main(int argc, char** argv) {
   const int w = argc > 2 ? std::atoi(argv[2]) : 1242;
   const int h = argc > 3 ? std::atoi(argv[3]) : 375;
   int found = 0, wanted = 0, spurious = 0;
+  // Per terrain profile (flat, uphill, downhill, slope change) and ground texture (textured,
+  // weak): scenes, scenes with at least 90 % of their ground rows within +-1, the mean share,
+  // and the scenes whose ground is the measured line.
+  struct GroundTally {
+    int scenes = 0, within = 0, measured = 0;
+    double share = 0.0;
+  };
+  GroundTally ground_tally[4][2] = {};
   const int first = std::getenv("FIRST") ? std::atoi(std::getenv("FIRST")) : 1;
   for (int seed = first; seed < first + n; ++seed) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -85,6 +93,14 @@ int main(int argc, char** argv) {
       if (!std::isfinite(t.ground_offset_per_row[y])) continue;
       ++rows;
       ok += std::abs(r.ground.offset_per_row[y] - t.ground_offset_per_row[y]) <= 1.0f;
+    }
+    {
+      GroundTally& g = ground_tally[static_cast<int>(sp.terrain) & 3][sp.weak_ground_texture ? 1 : 0];
+      const double share = rows > 0 ? static_cast<double>(ok) / rows : 0.0;
+      ++g.scenes;
+      g.within += share >= 0.9 ? 1 : 0;
+      g.measured += r.ground.source == GroundSource::kHough ? 1 : 0;
+      g.share += share;
     }
     // The ground model over every visible ground pixel: within 1 of the true disparity.
     long ground_px = 0, ground_ok = 0;
@@ -298,5 +314,15 @@ int main(int argc, char** argv) {
       }
     }
   }
+  const char* terrain_names[4] = {"flat", "uphill", "downhill", "slope change"};
+  std::printf("ground rows within +-1 by terrain (scenes with >= 90 %% of their rows / scenes, mean share, "
+              "measured line):\n");
+  for (int t = 0; t < 4; ++t)
+    for (int weak = 0; weak < 2; ++weak) {
+      const GroundTally& g = ground_tally[t][weak];
+      if (g.scenes == 0) continue;
+      std::printf("  %-12s %-8s %3d / %3d  mean %.3f  measured %d\n", terrain_names[t], weak ? "weak" : "textured",
+                  g.within, g.scenes, g.share / g.scenes, g.measured);
+    }
   std::printf("found %d / %d, spurious %d over %d frames\n", found, wanted, spurious, n);
 }
