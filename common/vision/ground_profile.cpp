@@ -851,17 +851,17 @@ void GroundEstimator::rollFit(int w, GroundProfile& ground) {
 }
 
 void GroundEstimator::compute(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous,
-                              int previous_age_frames, GroundProfile& out) {
-  computeImpl(score, rig, previous, previous_age_frames, out, false);
+                              int previous_age_frames, GroundProfile& out, bool refuse_measured) {
+  computeImpl(score, rig, previous, previous_age_frames, out, false, refuse_measured);
 }
 
 void GroundEstimator::computeReference(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous,
-                                       int previous_age_frames, GroundProfile& out) {
-  computeImpl(score, rig, previous, previous_age_frames, out, true);
+                                       int previous_age_frames, GroundProfile& out, bool refuse_measured) {
+  computeImpl(score, rig, previous, previous_age_frames, out, true, refuse_measured);
 }
 
 void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous,
-                                  int previous_age_frames, GroundProfile& out, bool reference) {
+                                  int previous_age_frames, GroundProfile& out, bool reference, bool refuse_measured) {
   auto houghOf = [&](const std::vector<std::uint8_t>& use, int rows, int offsets) {
     return reference ? hough(use, rows, offsets) : houghFast(use, rows, offsets);
   };
@@ -872,6 +872,7 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
   second_line_.reset();
   main_hough_.reset();
   second_hough_.reset();
+  needs_corroboration_ = false;
   if (reference)
     findPeaksReference(score);
   else
@@ -889,6 +890,8 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
     l1->support_rows = support(*l1, row_begin, rows, offsets, &crossed);
     measured = l1->support_rows >= params_.min_support_rows &&
                l1->support_rows >= params_.min_support_fraction * crossed;
+    needs_corroboration_ = measured && l1->support_rows < params_.corroborated_support_fraction * crossed;
+    if (refuse_measured) measured = false;
   }
 
   out.offset_per_row.assign(static_cast<std::size_t>(rows), GroundProfile::kUnknown);

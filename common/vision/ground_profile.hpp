@@ -36,6 +36,12 @@ struct GroundParams {
   double support_tolerance_px = 1.5;  // a row supports a line when one of its peaks is this close (offset pixels)
   int min_support_rows = 20;          // fewer supporting rows: the texture is too weak, fall back
   double min_support_fraction = 0.3;  // ... or a smaller fraction of the rows the line crosses
+  // A line supported by fewer than this share of the rows it crosses is kept only when the
+  // column strips then measure the ground's transversal slope (a tilted ground spreads each
+  // row's match over many offsets, so its rows support the line less); otherwise it is taken
+  // for object outlines lined up with chance peaks on weak texture, and the fallback is used.
+  // 0: every line above min_support_fraction is kept.
+  double corroborated_support_fraction = 0.5;
   bool piecewise = true;              // look for a second segment (slope change)
   int min_segment_rows = 15;          // rows supporting the second segment on its side
   // Background line above the horizon.
@@ -68,6 +74,9 @@ struct GroundParams {
     v.field("support_tolerance_px", support_tolerance_px, 0.1, 10.0, "pixels", "peak distance supporting a line");
     v.field("min_support_rows", min_support_rows, 1, 100000, "rows", "support needed to accept a measured line");
     v.field("min_support_fraction", min_support_fraction, 0.0, 1.0, "", "support fraction needed");
+    v.field("corroborated_support_fraction", corroborated_support_fraction, 0.0, 1.0, "",
+            "a line supported by fewer than this share of its rows is kept only when the strips measure a "
+            "transversal slope (tilted ground); else the fallback is used (0: off)");
     v.field("piecewise", piecewise, 0, 1, "", "fit a second ground segment (slope change)");
     v.field("min_segment_rows", min_segment_rows, 1, 100000, "rows", "support needed by the second segment");
     v.field("min_background_score", min_background_score, 0.0, 1e9, "score", "weakest accepted background line");
@@ -109,10 +118,14 @@ class GroundEstimator {
   // profile and its age in frames (for the fallback), or nullptr.
   // Fast path (table-driven Hough votes, vectorised neighbourhood search, no
   // allocation once sized); bit-identical to computeReference.
+  // refuse_measured: the measured line is not used (it was not corroborated): the fallback is.
   void compute(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous, int previous_age_frames,
-               GroundProfile& out);
+               GroundProfile& out, bool refuse_measured = false);
   void computeReference(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous,
-                        int previous_age_frames, GroundProfile& out);
+                        int previous_age_frames, GroundProfile& out, bool refuse_measured = false);
+  // Whether the last compute's measured line needs the strips' corroboration
+  // (corroborated_support_fraction): false when none was measured.
+  bool needsCorroboration() const { return needs_corroboration_; }
 
   // The main (first) line of the last compute, when measured.
   const std::optional<GroundLine>& mainLine() const { return main_line_; }
@@ -141,7 +154,7 @@ class GroundEstimator {
     float weight;
   };
   void computeImpl(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous, int previous_age_frames,
-                   GroundProfile& out, bool reference);
+                   GroundProfile& out, bool reference, bool refuse_measured);
   void findPeaksReference(const cv::Mat& score);
   void keepStrongest(std::vector<Peak>& row_peaks);  // appends a row's strongest peaks to peaks_
   void findPeaks(const cv::Mat& score);  // vector test of the local maxima; same peaks as findPeaksReference
@@ -227,6 +240,7 @@ class GroundEstimator {
   std::vector<double> roll_sorted_;
   std::vector<std::uint8_t> roll_right_;  // padded right row
   std::vector<int> roll_counts_;
+  bool needs_corroboration_ = false;
   std::optional<GroundLine> main_line_;
   std::optional<GroundLine> second_line_;
   std::optional<GroundLine> main_hough_;

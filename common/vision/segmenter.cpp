@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <utility>
 
 #include "config/errors.hpp"
 
@@ -67,17 +68,30 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
 
   t = Clock::now();
   const GroundProfile* previous = have_previous_ ? &previous_ground_ : nullptr;
-  if (params_.parallel) ground_.compute(out.correlation_initial, rig, previous, previous_age_frames_, out.ground);
-  else ground_.computeReference(out.correlation_initial, rig, previous, previous_age_frames_, out.ground);
+  auto groundAndRoll = [&](bool refuse_measured) {
+    if (params_.parallel)
+      ground_.compute(out.correlation_initial, rig, previous, previous_age_frames_, out.ground, refuse_measured);
+    else
+      ground_.computeReference(out.correlation_initial, rig, previous, previous_age_frames_, out.ground,
+                               refuse_measured);
+    // The line as measured, before the strips correct it: what a later frame falls back to.
+    if (out.ground.source == GroundSource::kHough) measured_ground_ = out.ground;
+    if (params_.parallel) ground_.estimateRoll(left_features, right_features, rig, out.ground, &correlator_.strips());
+    else ground_.estimateRollReference(left_features, right_features, rig, out.ground);
+  };
+  groundAndRoll(false);
+  // A weakly supported line stands only when the strips measured the ground's transversal
+  // slope, which explains the weak support; otherwise it is chance, and the fallback is used.
+  if (out.ground.source == GroundSource::kHough && ground_.needsCorroboration() &&
+      out.ground.offset_per_column == 0.0f)
+    groundAndRoll(true);
   if (out.ground.source == GroundSource::kHough) {
-    previous_ground_ = out.ground;
+    std::swap(previous_ground_, measured_ground_);
     previous_age_frames_ = 1;
     have_previous_ = true;
   } else if (have_previous_) {
     ++previous_age_frames_;
   }
-  if (params_.parallel) ground_.estimateRoll(left_features, right_features, rig, out.ground, &correlator_.strips());
-  else ground_.estimateRollReference(left_features, right_features, rig, out.ground);
   out.timing_ms["ground"] = msSince(t);
 
   t = Clock::now();

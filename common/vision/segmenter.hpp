@@ -83,6 +83,7 @@ class Segmenter {
   ObstacleExtractor obstacles_;
   StandingPeopleFinder standing_;
   GroundProfile previous_ground_;     // last measured (Hough) profile
+  GroundProfile measured_ground_;     // this frame's measured profile, before the roll's corrections
   int previous_age_frames_ = 0;       // frames since it was measured
   bool have_previous_ = false;
   cv::Mat remaining_;                 // left features still unexplained

@@ -3,6 +3,7 @@
 // weak-texture fallback, and obstacle recall / spurious obstacles over many seeds.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 
 #include <gtest/gtest.h>
@@ -132,6 +133,47 @@ TEST(SyntheticGround, WeakTextureOnASlopeMeetsTheBackgroundEdge) {
     EXPECT_NEAR(after.ground.background_offset, pair.truth->background_offset, 1.0) << "slope " << slope;
   }
   // Level ground keeps the prior: WeakTextureFallsBackToThePrior, with the same defaults.
+}
+
+// On weak ground texture, object outlines can line up with chance peaks into a line that
+// passes the Hough's acceptance while supported by under half of the rows it crosses (seed
+// 103: a downhill scene whose line rises twice as fast as the ground). Unless the column
+// strips then measure a transversal slope (which would explain the weak support), that line
+// is refused and the fallback, the prior moved to the background's edge, is used.
+TEST(SyntheticGround, WeaklySupportedLineWithoutARollFallsBack) {
+  const StereoPair pair = renderSyntheticScene(randomSceneParams(103), 103);
+  ASSERT_TRUE(pair.truth);
+  ASSERT_TRUE(randomSceneParams(103).weak_ground_texture);
+  SegmenterParams uncorroborated;
+  uncorroborated.ground.corroborated_support_fraction = 0.0;
+  const SegmentationResult before = segment(pair, uncorroborated);
+  const SegmentationResult after = segment(pair);
+  EXPECT_EQ(before.ground.source, GroundSource::kHough);
+  EXPECT_LT(groundRowsWithin1(before.ground, *pair.truth, 128), 0.5);
+  EXPECT_EQ(after.ground.source, GroundSource::kPrior);
+  EXPECT_GE(groundRowsWithin1(after.ground, *pair.truth, 128), 0.9);
+}
+
+// The same over every weak-texture scene of seeds 1-200 (23 scenes): more of them get their
+// ground within +-1 on 90 % of its rows (12 -> 15 when measured; the rest are scenes whose
+// prior is off by about a pixel on a downhill slope, and slope changes).
+TEST(SyntheticGround, WeakTextureScenesOverManySeeds) {
+  SegmenterParams uncorroborated;
+  uncorroborated.ground.corroborated_support_fraction = 0.0;
+  int scenes = 0, within_before = 0, within_after = 0;
+  for (std::uint64_t seed = 1; seed <= 200; ++seed) {
+    const SyntheticSceneParams p = randomSceneParams(seed);
+    if (!p.weak_ground_texture) continue;
+    const StereoPair pair = renderSyntheticScene(p, seed);
+    ++scenes;
+    within_before += groundRowsWithin1(segment(pair, uncorroborated).ground, *pair.truth, 128) >= 0.9 ? 1 : 0;
+    within_after += groundRowsWithin1(segment(pair).ground, *pair.truth, 128) >= 0.9 ? 1 : 0;
+  }
+  std::printf("weak-texture scenes %d: ground within 1 px on 90 %% of its rows: %d without the corroboration, %d with\n",
+              scenes, within_before, within_after);
+  EXPECT_GE(scenes, 20);
+  EXPECT_GE(within_after, within_before + 2);
+  EXPECT_GE(within_after, scenes * 3 / 5);
 }
 
 // A crest hides the far ground: the background shows ~50 rows below the level horizon, yet
