@@ -500,6 +500,18 @@ float GroundEstimator::backgroundOffset(const cv::Mat& score, int rows_above, co
   }
 }
 
+double GroundEstimator::refinedBackground(float background) const {
+  // The vertex of the parabola through the column sums at the offset and its two neighbours
+  // (neighbours left out as hiding measured ground, marked -1, leave the offset as it is).
+  const auto& sums = background_sums_;
+  const auto k = static_cast<std::size_t>(std::lround(background));
+  if (k == 0 || k + 1 >= sums.size()) return background;
+  const double l = sums[k - 1], c = sums[k], r = sums[k + 1];
+  const double den = l - 2.0 * c + r;
+  if (l < 0.0 || r < 0.0 || !(den < 0.0)) return background;
+  return static_cast<double>(background) + 0.5 * (l - r) / den;
+}
+
 bool GroundEstimator::hidesMeasuredGround(float offset, const std::vector<float>& ground_per_row) const {
   const double tol = params_.support_tolerance_px;
   const double hidden_below = static_cast<double>(offset) - 1.0 - tol;
@@ -987,7 +999,9 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
     const double slope = rig.groundOffsetPrior(1.0) - rig.groundOffsetPrior(0.0);
     if (edge > 0 && edge < rows && edge != horizon && slope > 0.0) {
       const GroundLine level{slope, -rig.groundOffsetPrior(0.0) / slope, 0};
-      const GroundLine moved{slope, static_cast<double>(edge) - static_cast<double>(background) / slope, 0};
+      // The ground meets the background at the edge row, at the background's offset to a
+      // fraction of a pixel (the background line itself keeps its whole offset).
+      const GroundLine moved{slope, static_cast<double>(edge) - refinedBackground(background) / slope, 0};
       const int beyond_level = rowsBeyond(level, horizon, rows, background);
       const int beyond_moved = rowsBeyond(moved, edge, rows, background);
       auto refuted = [&](int beyond, int other) {

@@ -182,6 +182,9 @@ class GroundEstimator {
   // The offset dominating the score of the first `rows_above` rows whose background would not
   // hide measured ground: a background at offset b hides every ground row nearer than b.
   float backgroundOffset(const cv::Mat& score, int rows_above, const std::vector<float>& ground_per_row);
+  // The background's offset to a fraction of a pixel, from the column sums of the last
+  // backgroundOffset() around its (whole) offset.
+  double refinedBackground(float background) const;
   // True when the ground rows a background at `offset` would hide show the ground (peaks on
   // `ground_per_row`) as a measured segment does (min_segment_rows, and min_support_fraction of
   // the hidden rows) and make up min_support_fraction of all the rows supporting the ground.
