@@ -504,12 +504,14 @@ double GroundEstimator::refinedBackground(float background) const {
   // The vertex of the parabola through the column sums at the offset and its two neighbours
   // (neighbours left out as hiding measured ground, marked -1, leave the offset as it is).
   const auto& sums = background_sums_;
+  const double whole = static_cast<double>(background);
   const auto k = static_cast<std::size_t>(std::lround(background));
-  if (k == 0 || k + 1 >= sums.size()) return background;
-  const double l = sums[k - 1], c = sums[k], r = sums[k + 1];
+  if (k == 0 || k + 1 >= sums.size()) return whole;
+  const auto l = static_cast<double>(sums[k - 1]), c = static_cast<double>(sums[k]),
+             r = static_cast<double>(sums[k + 1]);
   const double den = l - 2.0 * c + r;
-  if (l < 0.0 || r < 0.0 || !(den < 0.0)) return background;
-  return static_cast<double>(background) + 0.5 * (l - r) / den;
+  if (l < 0.0 || r < 0.0 || !(den < 0.0)) return whole;
+  return whole + 0.5 * (l - r) / den;
 }
 
 bool GroundEstimator::hidesMeasuredGround(float offset, const std::vector<float>& ground_per_row) const {
