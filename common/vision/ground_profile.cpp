@@ -19,6 +19,13 @@ inline bool isRowPeak(const float* s, int d, int offsets, float floor) {
   const bool right_ok = d == offsets - 1 || s[d] > s[d + 1];
   return left_ok && right_ok && s[d] >= floor;
 }
+
+// Where the parabola through three equally spaced values (left, centre, right) peaks,
+// relative to the centre; 0 when they do not bend downwards.
+inline double parabolaPeakShift(double left, double centre, double right) {
+  const double den = left - 2 * centre + right;
+  return den < 0 ? 0.5 * (left - right) / den : 0.0;
+}
 }  // namespace
 
 GroundEstimator::GroundEstimator(const GroundParams& params) : params_(params) { params_.validate(); }
@@ -507,11 +514,9 @@ double GroundEstimator::refinedBackground(float background) const {
   const double whole = static_cast<double>(background);
   const auto k = static_cast<std::size_t>(std::lround(background));
   if (k == 0 || k + 1 >= sums.size()) return whole;
-  const auto l = static_cast<double>(sums[k - 1]), c = static_cast<double>(sums[k]),
-             r = static_cast<double>(sums[k + 1]);
-  const double den = l - 2.0 * c + r;
-  if (l < 0.0 || r < 0.0 || !(den < 0.0)) return whole;
-  return whole + 0.5 * (l - r) / den;
+  const auto l = static_cast<double>(sums[k - 1]), r = static_cast<double>(sums[k + 1]);
+  if (l < 0.0 || r < 0.0) return whole;
+  return whole + parabolaPeakShift(l, static_cast<double>(sums[k]), r);
 }
 
 bool GroundEstimator::hidesMeasuredGround(float offset, const std::vector<float>& ground_per_row) const {
@@ -687,9 +692,7 @@ bool stripPeak(const double* h, int bins, std::vector<double>& sorted, double& d
   std::nth_element(sorted.begin(), sorted.begin() + bins / 2, sorted.end());
   excess = h[best] - sorted[static_cast<std::size_t>(bins / 2)];
   if (excess <= 0.0 || best == 0 || best == bins - 1) return false;
-  const double den = h[best - 1] - 2 * h[best] + h[best + 1];
-  const double sub = den < 0 ? 0.5 * (h[best - 1] - h[best + 1]) / den : 0.0;
-  delta = best - bins / 2 + sub;
+  delta = best - bins / 2 + parabolaPeakShift(h[best - 1], h[best], h[best + 1]);
   return true;
 }
 }  // namespace

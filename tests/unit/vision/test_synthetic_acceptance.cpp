@@ -141,9 +141,10 @@ TEST(SyntheticGround, WeakTextureOnASlopeMeetsTheBackgroundEdge) {
 // strips then measure a transversal slope (which would explain the weak support), that line
 // is refused and the fallback, the prior moved to the background's edge, is used.
 TEST(SyntheticGround, WeaklySupportedLineWithoutARollFallsBack) {
-  const StereoPair pair = renderSyntheticScene(randomSceneParams(103), 103);
+  const SyntheticSceneParams p = randomSceneParams(103);
+  ASSERT_TRUE(p.weak_ground_texture);
+  const StereoPair pair = renderSyntheticScene(p, 103);
   ASSERT_TRUE(pair.truth);
-  ASSERT_TRUE(randomSceneParams(103).weak_ground_texture);
   SegmenterParams uncorroborated;
   uncorroborated.ground.corroborated_support_fraction = 0.0;
   const SegmentationResult before = segment(pair, uncorroborated);
