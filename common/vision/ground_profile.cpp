@@ -175,6 +175,8 @@ std::optional<GroundLine> GroundEstimator::hough(const std::vector<std::uint8_t>
 }
 
 namespace {
+// farSegment tries every this many slopes of the Hough space (the refit then sets the slope).
+constexpr int kFarSlopeStride = 4;
 // Bin shift of a (offset, slope) pair whose rounding depends on the row (below).
 constexpr int kRowDependentShift = std::numeric_limits<int>::min() / 2;
 // Slopes per group of houghFast's branch and bound, level by level (each size divides the
@@ -485,6 +487,147 @@ GroundLine GroundEstimator::refit(const GroundLine& line, int row_begin, int row
   out.slope = a;
   out.horizon_row = -b / a;
   return out;
+}
+
+std::optional<GroundLine> GroundEstimator::farSegment(const cv::Mat& score, const GroundLine& line) {
+  const int rows = score.rows;
+  const int h1 = std::clamp(static_cast<int>(std::ceil(line.horizon_row)), 0, rows);
+  const int need = params_.min_segment_rows;
+  if (rows - h1 < 2 * need) return std::nullopt;
+  // The background the segment would meet, as the line alone leaves it.
+  line_rows_.resize(static_cast<std::size_t>(rows));
+  for (int y = 0; y < rows; ++y) line_rows_[static_cast<std::size_t>(y)] = static_cast<float>(line.offsetAt(y));
+  const double tol = params_.support_tolerance_px;
+  const double ground_above = static_cast<double>(backgroundOffset(score, h1, line_rows_)) + tol;
+  // Rows supporting the line where the segment would be ground (the line is the background
+  // where it is farther), as prefix sums. The rows that can support the segment and not the
+  // line (a peak farther than the background, none on the line) vote; a bound on what a
+  // segment ending above row j can gain: the best run of rows ending there, each row +1 when
+  // it votes and -1 when it supports the line.
+  const double background = ground_above - tol;
+  line_support_.assign(static_cast<std::size_t>(rows) + 1, 0);
+  far_bound_.assign(static_cast<std::size_t>(rows) + 1, 0);
+  far_rows_.clear();
+  far_peaks_.clear();
+  for (int y = 0; y < rows; ++y) {
+    const auto i = static_cast<std::size_t>(y);
+    const bool on_line = peakNear(y, std::max(background, line.offsetAt(y)));
+    bool votes = false;
+    if (!on_line) {
+      for (int k = row_peak_begin_[i]; k < row_peak_begin_[i + 1]; ++k) {
+        const double d = peaks_[static_cast<std::size_t>(k)].offset;
+        if (d <= background) continue;
+        if (!votes) far_rows_.push_back(FarRow{y, static_cast<int>(far_peaks_.size()), 0});
+        votes = true;
+        far_peaks_.push_back(d);
+        ++far_rows_.back().peaks;
+      }
+    }
+    line_support_[i + 1] = line_support_[i] + (on_line ? 1 : 0);
+    far_bound_[i + 1] = std::max(far_bound_[i], 0) + (votes ? 1 : 0) - (on_line ? 1 : 0);
+  }
+  int best_gain = need - 1;
+  if (*std::max_element(far_bound_.begin(), far_bound_.end()) <= best_gain) return std::nullopt;
+  // Per slope, each voting row votes for the junction rows whose segment passes within the
+  // tolerance of one of its peaks and is ground there: the segment's offset at row y is
+  // f(j) = a * j + c, linear in the junction row j.
+  const int j_first = h1 + need;
+  const int n_slopes = static_cast<int>(std::floor((params_.max_slope - params_.min_slope) / params_.slope_step)) + 1;
+  const double s1 = line.slope;
+  int best_j = -1, best_k = -1;
+  // The line stays the ground below the junction: supported there as a segment is.
+  int j_last = rows - 1;
+  while (j_last >= j_first && line_support_[static_cast<std::size_t>(rows)] -
+                                      line_support_[static_cast<std::size_t>(j_last)] < need)
+    --j_last;
+  if (j_last < j_first) return std::nullopt;
+  far_votes_.resize(static_cast<std::size_t>(rows) + 1);
+  auto scan = [&](int k) {
+    const double s2 = params_.min_slope + k * params_.slope_step;
+    const double a = s1 - s2;
+    if (std::abs(a) < 0.05 * s1) return;
+    const double inv_a = 1.0 / a;
+    // Rows within this many of the junction are within the tolerance of both lines: they
+    // support both or neither, and count for neither.
+    const int shared = static_cast<int>(std::floor(tol / std::abs(a)));
+    std::fill(far_votes_.begin(), far_votes_.end(), 0);
+    // The integer j with lo <= a * j + c <= hi, j > y, j_first <= j < rows.
+    auto junctions = [&](double c, double lo, double hi, int y, int& first, int& last) {
+      const double u = (lo - c) * inv_a, v = (hi - c) * inv_a;
+      const double j_lo = std::clamp(std::min(u, v), -1.0, static_cast<double>(rows));
+      const double j_hi = std::clamp(std::max(u, v), -1.0, static_cast<double>(rows));
+      first = std::max({static_cast<int>(std::ceil(j_lo)), y + 1, j_first});
+      last = std::min(static_cast<int>(std::floor(j_hi)), rows - 1);
+    };
+    for (const FarRow& r : far_rows_) {
+      const double c = s2 * r.row - s1 * line.horizon_row;
+      int run_first = -1, run_last = -2;  // the peaks' intervals merged: a row votes once
+      for (int p = r.first; p < r.first + r.peaks; ++p) {
+        const double d = far_peaks_[static_cast<std::size_t>(p)];
+        int first = 0, last = 0;
+        junctions(c, std::max(d - tol, ground_above), d + tol, r.row, first, last);
+        if (first > last) continue;
+        if (first > run_last + 1) {
+          if (run_last >= run_first) {
+            ++far_votes_[static_cast<std::size_t>(run_first)];
+            --far_votes_[static_cast<std::size_t>(run_last) + 1];
+          }
+          run_first = first;
+          run_last = last;
+        } else {
+          run_last = std::max(run_last, last);
+        }
+      }
+      if (run_last >= run_first) {
+        ++far_votes_[static_cast<std::size_t>(run_first)];
+        --far_votes_[static_cast<std::size_t>(run_last) + 1];
+      }
+    }
+    int votes = 0;
+    for (int j = 0; j < rows; ++j) {
+      votes += far_votes_[static_cast<std::size_t>(j)];
+      if (j < j_first || votes <= best_gain || j > j_last) continue;
+      const double dj = line.offsetAt(j);
+      if (dj <= ground_above) continue;
+      const int y0 = std::max(0, static_cast<int>(std::floor(j - (dj - ground_above) / s2)) + 1);
+      const int y1 = std::max(y0, j - shared);
+      const int gained =
+          votes - (line_support_[static_cast<std::size_t>(y1)] - line_support_[static_cast<std::size_t>(y0)]);
+      if (gained > best_gain) {
+        best_gain = gained;
+        best_j = j;
+        best_k = k;
+      }
+    }
+  };
+  // Every kFarSlopeStride-th slope, then the slopes around the best of them.
+  for (int k = 0; k < n_slopes; k += kFarSlopeStride) scan(k);
+  if (best_k >= 0) {
+    const int coarse = best_k;
+    for (int k = std::max(0, coarse - kFarSlopeStride + 1); k < std::min(n_slopes, coarse + kFarSlopeStride); ++k)
+      if (k != coarse) scan(k);
+  }
+  if (best_j < 0) return std::nullopt;
+  const double best_slope = params_.min_slope + best_k * params_.slope_step;
+  GroundLine far{best_slope, best_j - line.offsetAt(best_j) / best_slope, 0};
+  const int top = static_cast<int>(std::ceil(std::min(line.horizon_row, far.horizon_row)));
+  far = refit(far, top, best_j);
+  if (std::abs(far.slope - line.slope) <= 1e-6) return std::nullopt;
+  // The refitted segment, met by the line at its own junction, must still gain as much.
+  const double yj = (s1 * line.horizon_row - far.slope * far.horizon_row) / (s1 - far.slope);
+  if (!(yj > top && yj < rows - 1)) return std::nullopt;
+  const int j = static_cast<int>(std::ceil(yj));
+  const int shared = static_cast<int>(std::floor(tol / std::abs(s1 - far.slope)));
+  int gained = 0;
+  for (int y = std::max(top, 0); y < j; ++y) {
+    const double d = far.offsetAt(y);
+    if (d <= ground_above) continue;
+    gained += peakNear(y, d) ? 1 : 0;
+    if (y < j - shared) gained -= line_support_[static_cast<std::size_t>(y) + 1] - line_support_[static_cast<std::size_t>(y)];
+  }
+  if (gained < need) return std::nullopt;
+  far.support_rows = support(far, top, j, score.cols, nullptr);
+  return far;
 }
 
 float GroundEstimator::backgroundOffset(const cv::Mat& score, int rows_above, const std::vector<float>& ground_per_row) {
@@ -949,6 +1092,19 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
           if (l2 && std::abs(l2->slope - l1->slope) > 1e-6) {
             junction = (l1->slope * l1->horizon_row - l2->slope * l2->horizon_row) / (l1->slope - l2->slope);
             if (junction > top && junction < rows - 1) second_line_ = l2;
+          }
+        }
+      }
+      // Unless the line is the far part and the second segment the near one, a far segment
+      // meeting the line where it explains more rows than the line's extension replaces it.
+      if ((!second_line_ || second_far) && params_.far_segment_search && !needs_corroboration_) {
+        if (std::optional<GroundLine> far = farSegment(score, *l1)) {
+          const double yj = (l1->slope * l1->horizon_row - far->slope * far->horizon_row) / (l1->slope - far->slope);
+          const int top = static_cast<int>(std::ceil(std::min(l1->horizon_row, far->horizon_row)));
+          if (yj > top && yj < rows - 1) {
+            second_line_ = far;
+            second_far = true;
+            junction = yj;
           }
         }
       }

@@ -44,6 +44,9 @@ struct GroundParams {
   double corroborated_support_fraction = 0.5;
   bool piecewise = true;              // look for a second segment (slope change)
   int min_segment_rows = 15;          // rows supporting the second segment on its side
+  // A slope change ahead: first look for a far segment meeting the line (farSegment), which
+  // must explain min_segment_rows more rows above its junction than the line does.
+  bool far_segment_search = true;
   // Background line above the horizon.
   float min_background_score = 0.5f;  // summed score of the best background column; below: offset 0 (infinity)
   // Fallback when the ground is not measured.
@@ -78,6 +81,8 @@ struct GroundParams {
             "a line supported by fewer than this share of its rows is kept only when the strips measure a "
             "transversal slope (tilted ground); else the fallback is used (0: off)");
     v.field("piecewise", piecewise, 0, 1, "", "fit a second ground segment (slope change)");
+    v.field("far_segment_search", far_segment_search, 0, 1, "",
+            "with piecewise: first search a far segment meeting the line at a junction row");
     v.field("min_segment_rows", min_segment_rows, 1, 100000, "rows", "support needed by the second segment");
     v.field("min_background_score", min_background_score, 0.0, 1e9, "score", "weakest accepted background line");
     v.field("roll_strips", roll_strips, 0, 64, "", "column strips for the transversal slope (0 = off)");
@@ -175,6 +180,15 @@ class GroundEstimator {
   bool fitBandLine(double max_deviation, double& shift, double& tilt, int min_strips) const;
   // The strips' line fitted twice (outliers out), true when the strips agree with it.
   bool fitStrips(double& shift, double& tilt) const;
+  // The far segment of a slope change ahead, if the rows above the line show one: a segment
+  // through the line at a junction row, steeper or flatter, chosen where it is supported by
+  // more of the rows above the junction than the line's own extension. Only rows where the
+  // segment is ground (farther than the background by more than support_tolerance_px) count,
+  // for both: rows where it would be the background say nothing about the ground; nor do the
+  // rows next to the junction where the two lie within the tolerance of each other. The line
+  // must stay supported below the junction on min_segment_rows rows. Kept when it explains at
+  // least min_segment_rows more rows than the line, also once refitted to its peaks.
+  std::optional<GroundLine> farSegment(const cv::Mat& score, const GroundLine& line);
   // Row y has a peak within support_tolerance_px of offset d.
   bool peakNear(int y, double d) const;
   int support(const GroundLine& line, int row_begin, int row_end, int offsets, int* crossed) const;
@@ -240,6 +254,17 @@ class GroundEstimator {
   };
   std::vector<OpenGroup> open_groups_;  // groups neither scanned nor dropped
   std::vector<float> background_sums_;
+  std::vector<float> line_rows_;          // farSegment: the line's offset per row
+  std::vector<int> line_support_;         // farSegment: rows supporting the line, prefix sums
+  std::vector<int> far_bound_;
+  std::vector<int> far_votes_;
+  struct FarRow {
+    int row;
+    int first;  // its peaks in far_peaks_
+    int peaks;
+  };
+  std::vector<FarRow> far_rows_;          // farSegment: rows that may vote, and their peaks
+  std::vector<double> far_peaks_;            // farSegment: per junction row, rows voting (difference array)            // farSegment: most rows a segment ending at a row can gain
   std::vector<double> roll_sorted_;
   std::vector<std::uint8_t> roll_right_;  // padded right row
   std::vector<int> roll_counts_;
