@@ -44,8 +44,9 @@ struct GroundParams {
   double corroborated_support_fraction = 0.5;
   bool piecewise = true;              // look for a second segment (slope change)
   int min_segment_rows = 15;          // rows supporting the second segment on its side
-  // A slope change ahead: first look for a far segment meeting the line (farSegment), which
-  // must explain min_segment_rows more rows above its junction than the line does.
+  // A slope change ahead: unless the second Hough pass found a near segment, a far segment
+  // meeting the line (farSegment) replaces the pass's far one, or stands alone, when it explains
+  // min_segment_rows more rows above its junction than the line does.
   bool far_segment_search = true;
   // Background line above the horizon.
   float min_background_score = 0.5f;  // summed score of the best background column; below: offset 0 (infinity)
@@ -82,7 +83,7 @@ struct GroundParams {
             "transversal slope (tilted ground); else the fallback is used (0: off)");
     v.field("piecewise", piecewise, 0, 1, "", "fit a second ground segment (slope change)");
     v.field("far_segment_search", far_segment_search, 0, 1, "",
-            "with piecewise: first search a far segment meeting the line at a junction row");
+            "with piecewise: search a far segment meeting the line at a junction row (slope change ahead)");
     v.field("min_segment_rows", min_segment_rows, 1, 100000, "rows", "support needed by the second segment");
     v.field("min_background_score", min_background_score, 0.0, 1e9, "score", "weakest accepted background line");
     v.field("roll_strips", roll_strips, 0, 64, "", "column strips for the transversal slope (0 = off)");
@@ -256,15 +257,15 @@ class GroundEstimator {
   std::vector<float> background_sums_;
   std::vector<float> line_rows_;          // farSegment: the line's offset per row
   std::vector<int> line_support_;         // farSegment: rows supporting the line, prefix sums
-  std::vector<int> far_bound_;
-  std::vector<int> far_votes_;
+  std::vector<int> far_bound_;            // farSegment: most rows a segment ending at a row can gain
+  std::vector<int> far_votes_;            // farSegment: per junction row, rows voting (difference array)
   struct FarRow {
     int row;
     int first;  // its peaks in far_peaks_
     int peaks;
   };
-  std::vector<FarRow> far_rows_;          // farSegment: rows that may vote, and their peaks
-  std::vector<double> far_peaks_;            // farSegment: per junction row, rows voting (difference array)            // farSegment: most rows a segment ending at a row can gain
+  std::vector<FarRow> far_rows_;          // farSegment: rows that may vote ...
+  std::vector<double> far_peaks_;         // ... and their peaks' offsets
   std::vector<double> roll_sorted_;
   std::vector<std::uint8_t> roll_right_;  // padded right row
   std::vector<int> roll_counts_;
