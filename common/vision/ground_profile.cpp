@@ -614,7 +614,7 @@ std::optional<GroundLine> GroundEstimator::farSegment(const cv::Mat& score, cons
   far = refit(far, top, best_j);
   if (std::abs(far.slope - line.slope) <= 1e-6) return std::nullopt;
   // The refitted segment, met by the line at its own junction, must still gain as much.
-  const double yj = (s1 * line.horizon_row - far.slope * far.horizon_row) / (s1 - far.slope);
+  const double yj = line.junctionRow(far);
   if (!(yj > top && yj < rows - 1)) return std::nullopt;
   const int j = static_cast<int>(std::ceil(yj));
   const int shared = static_cast<int>(std::floor(tol / std::abs(s1 - far.slope)));
@@ -1071,7 +1071,7 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
       std::optional<GroundLine> l2 = houghOf(use_, rows, offsets);
       second_hough_ = l2;
       if (l2 && std::abs(l2->slope - l1->slope) > 0.05 * l1->slope) {
-        const double yj = (l1->slope * l1->horizon_row - l2->slope * l2->horizon_row) / (l1->slope - l2->slope);
+        const double yj = l1->junctionRow(*l2);
         const int top = static_cast<int>(std::ceil(std::min(l1->horizon_row, l2->horizon_row)));
         if (yj > top && yj < rows - 1) {
           const int j = static_cast<int>(std::ceil(yj));
@@ -1090,7 +1090,7 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
             l2.reset();
           }
           if (l2 && std::abs(l2->slope - l1->slope) > 1e-6) {
-            junction = (l1->slope * l1->horizon_row - l2->slope * l2->horizon_row) / (l1->slope - l2->slope);
+            junction = l1->junctionRow(*l2);
             if (junction > top && junction < rows - 1) second_line_ = l2;
           }
         }
@@ -1098,14 +1098,11 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
       // Unless the line is the far part and the second segment the near one, a far segment
       // meeting the line where it explains more rows than the line's extension replaces it.
       if ((!second_line_ || second_far) && params_.far_segment_search && !needs_corroboration_) {
+        // farSegment returns only a segment whose junction lies inside the ground rows.
         if (std::optional<GroundLine> far = farSegment(score, *l1)) {
-          const double yj = (l1->slope * l1->horizon_row - far->slope * far->horizon_row) / (l1->slope - far->slope);
-          const int top = static_cast<int>(std::ceil(std::min(l1->horizon_row, far->horizon_row)));
-          if (yj > top && yj < rows - 1) {
-            second_line_ = far;
-            second_far = true;
-            junction = yj;
-          }
+          second_line_ = far;
+          second_far = true;
+          junction = l1->junctionRow(*far);
         }
       }
     }

@@ -114,6 +114,10 @@ struct GroundLine {
   double horizon_row = 0.0;  // row where the offset is 0
   int support_rows = 0;
   double offsetAt(double row) const { return slope * (row - horizon_row); }
+  // The row where this line and `other` (of another slope) have the same offset.
+  double junctionRow(const GroundLine& other) const {
+    return (slope * horizon_row - other.slope * other.horizon_row) / (slope - other.slope);
+  }
 };
 
 class GroundEstimator {
