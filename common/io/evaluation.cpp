@@ -40,6 +40,10 @@ nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : 
 
 }  // namespace
 
+std::array<double, 4> labelEdges(const std::array<double, 4>& label_box) {
+  return {label_box[0], label_box[1], label_box[2] + 1.0, label_box[3] + 1.0};
+}
+
 const char* toString(Outcome outcome) {
   switch (outcome) {
     case Outcome::kTruePositive: return "tp";
@@ -99,7 +103,7 @@ const FrameEvaluation& Evaluator::addFrame(const std::string& frame, const std::
       int best_label = -1;
       for (std::size_t i = 0; i < labels.size(); ++i) {
         if (role[i] != wanted || taken[i] != 0) continue;
-        const double o = iou(d.box, labels[i].box);
+        const double o = iou(d.box, labelEdges(labels[i].box));
         if (o >= best) {
           best = o;
           best_label = static_cast<int>(i);
@@ -118,7 +122,7 @@ const FrameEvaluation& Evaluator::addFrame(const std::string& frame, const std::
       const double a = area(d.box);
       for (std::size_t i = 0; i < labels.size() && sd.outcome == Outcome::kFalsePositive; ++i) {
         if (role[i] == LabelRole::kDontCare && a > 0.0 &&
-            intersection(d.box, labels[i].box) / a > params_.dontcare_overlap) {
+            intersection(d.box, labelEdges(labels[i].box)) / a > params_.dontcare_overlap) {
           sd.outcome = Outcome::kIgnored;
         }
       }
@@ -128,7 +132,7 @@ const FrameEvaluation& Evaluator::addFrame(const std::string& frame, const std::
       if (std::isfinite(d.distance_m) && l.location_m[2] > 0.0) {
         sd.distance_rel_error = std::abs(d.distance_m - l.location_m[2]) / l.location_m[2];
       }
-      sd.bottom_error_px = d.box[3] - l.box[3];
+      sd.bottom_error_px = d.box[3] - labelEdges(l.box)[3];
     }
     fe.detections[k] = sd;
   }

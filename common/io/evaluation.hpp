@@ -11,7 +11,8 @@
 //  - anything else (cars, misc obstacles): a detection there is a false positive.
 // Detections lower than min_height_px are ignored (as KITTI does). Detections are
 // matched greedily from the highest score, at IoU >= min_iou, first to counted
-// labels, then to ignored ones.
+// labels, then to ignored ones; a label's box is taken as pixel edges for that
+// (labelEdges below).
 //
 // Average precision: KITTI's 40 recall points (1/40 .. 1), precision
 // interpolated as the best precision at that recall or above.
@@ -47,7 +48,16 @@ struct EvaluationParams {
   void validate() const { validateParams(*this, "evaluation"); }
 };
 
-// A detection as scored: KITTI box [left, top, right, bottom] (pixels).
+// A KITTI label's box names the first and the last pixel the object covers (one cut by
+// the right edge of a 1242-pixel-wide image ends at 1241, by the bottom of a 375-row one
+// at 374). A detection's box gives pixel edges instead: right = left + width, bottom =
+// top + height. The label as pixel edges (right and bottom one further), which is how it
+// is compared with detections: as given, a detection covering exactly the object's
+// pixels would be one pixel wider and taller than its label (IoU 0.86 for a person 9 x 33
+// pixels in size).
+std::array<double, 4> labelEdges(const std::array<double, 4>& label_box);
+
+// A detection as scored: box of pixel edges [left, top, right, bottom].
 struct ScoredBox {
   std::array<double, 4> box{};
   double score = 0.0;
@@ -67,7 +77,7 @@ struct ScoredDetection {
   double iou = 0.0;
   double label_distance_m = std::numeric_limits<double>::quiet_NaN();
   double distance_rel_error = std::numeric_limits<double>::quiet_NaN();  // |Z - Zl| / Zl for true positives
-  double bottom_error_px = std::numeric_limits<double>::quiet_NaN();     // detection bottom - label bottom
+  double bottom_error_px = std::numeric_limits<double>::quiet_NaN();     // detection bottom - label bottom (edges)
 };
 
 // Per-frame outcome, also for the report's gallery.

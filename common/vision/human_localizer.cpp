@@ -724,7 +724,9 @@ bool HumanLocalizer::validateCandidate(BoxWorkspace& ws, const cv::Mat& left, co
   const double contact = groundRowForOffset(segmentation.ground, rig, static_cast<double>(offset), box_bottom,
                                             static_cast<double>(h.box.x) + 0.5 * static_cast<double>(h.box.width));
   if (std::isfinite(contact) && contact > box_top + 0.5 * box_height && contact < box_bottom + 0.5 * box_height) {
-    const double bottom = std::min(contact, static_cast<double>(left.rows));
+    // Rows are numbered at pixel centres and the box is of pixel edges: the box ends at the
+    // lower edge of the contact row.
+    const double bottom = std::min(contact + 0.5, static_cast<double>(left.rows));
     h.box.height = static_cast<float>(bottom - box_top);
     h.ground_contact_row = static_cast<int>(std::lround(contact));
   } else {
@@ -734,7 +736,7 @@ bool HumanLocalizer::validateCandidate(BoxWorkspace& ws, const cv::Mat& left, co
   const double z = rig.depthFromOffset(static_cast<double>(offset));
   h.distance_m = static_cast<float>(z);
   h.distance_sigma_m = static_cast<float>(z * z / (rig.focal_px * rig.baseline_m) * sigma_d);
-  const double foot_row = h.ground_contact_row >= 0 ? contact : static_cast<double>(h.box.y + h.box.height);
+  const double foot_row = h.ground_contact_row >= 0 ? contact : static_cast<double>(h.box.y + h.box.height) - 0.5;
   const double centre_col = static_cast<double>(h.box.x) + 0.5 * static_cast<double>(h.box.width);
   const Eigen::Vector3d p = rig.pointFromPixel(centre_col, foot_row, static_cast<double>(offset));
   h.position_m = p.cast<float>();

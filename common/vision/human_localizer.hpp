@@ -166,7 +166,7 @@ struct ScoreParams {
   double bias = 1.074;
   double w_symmetry = 0.655;
   double w_shape = 2.081;
-  double min_score = 0.40;  // detections below are dropped
+  double min_score = 0.42;  // detections below are dropped
 
   template <class V>
   void visit(V& v) {

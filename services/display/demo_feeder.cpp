@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "config/errors.hpp"
+#include "io/evaluation.hpp"
 #include "vision/segmentation_types.hpp"
 
 namespace sg {
@@ -24,7 +25,7 @@ nlohmann::json truthAsResult(const StereoPair& pair) {
   for (std::size_t i = 0; i < pair.labels.size(); ++i) {
     const ObjectLabel& label = pair.labels[i];
     if (!isPerson(label.type)) continue;
-    humans.push_back({{"box", {label.box[0], label.box[1], label.box[2], label.box[3]}},
+    humans.push_back({{"box", labelEdges(label.box)},
                       {"score", 1.0},
                       {"distance_m", label.location_m[2]},
                       {"position_m", {label.location_m[0], label.location_m[1], label.location_m[2]}},

@@ -104,7 +104,9 @@ void score(const std::vector<ObjectLabel>& labels, std::vector<Detection> dets, 
       for (std::size_t i = 0; i < labels.size(); ++i) {
         const bool role = want_counted ? counted(labels[i]) : ignoredPerson(labels[i]);
         if (!role || taken[i]) continue;
-        if (const double o = overlap(d.box, labels[i].box); o >= best) {
+        // Labels name their first and last pixel, detections give pixel edges.
+        const auto& b = labels[i].box;
+        if (const double o = overlap(d.box, {b[0], b[1], b[2] + 1.0, b[3] + 1.0}); o >= best) {
           best = o;
           best_label = static_cast<int>(i);
         }
@@ -221,7 +223,9 @@ TEST_F(EvaluateOnExportedScenes, TheGeneratorTruthAsDetectionsScoresPerfectly) {
       nlohmann::json frame = {{"frame", id}, {"width", 1242}, {"height", 375}, {"humans", nlohmann::json::array()}};
       for (const ObjectLabel& l : labels) {
         if (l.type != "Pedestrian") continue;
-        frame["humans"].push_back({{"box", l.box}, {"score", 0.9}, {"distance_m", l.location_m[2]}});
+        // The label names the first and last pixel; a detection box is of pixel edges.
+        const std::array<double, 4> edges = {l.box[0], l.box[1], l.box[2] + 1.0, l.box[3] + 1.0};
+        frame["humans"].push_back({{"box", edges}, {"score", 0.9}, {"distance_m", l.location_m[2]}});
       }
       f << frame.dump() << "\n";
     }

@@ -25,9 +25,10 @@ ObjectLabel pedestrian(double l, double t, double r, double b, double z) {
   return o;
 }
 
+// A detection covering exactly the label's pixels: its box is of pixel edges.
 ScoredBox detection(const ObjectLabel& l, double score, double z) {
   ScoredBox d;
-  d.box = l.box;
+  d.box = labelEdges(l.box);
   d.score = score;
   d.distance_m = z;
   return d;
@@ -165,12 +166,34 @@ TEST(Evaluation, IgnoredClassesAndDontCareAreNotFalsePositives) {
 TEST(Evaluation, LowIoUIsAMissAndAFalsePositive) {
   std::vector<ObjectLabel> labels = {pedestrian(100, 100, 130, 180, 10)};
   Evaluator ev;
-  ev.addFrame("x", labels, {ScoredBox{{115, 100, 145, 180}, 0.9, 10}});  // IoU = 15*80 / (45*80) = 0.33
+  // Label pixels 100..130 x 100..180 (edges to 131, 181): IoU = 16*80 / (31*81 + 30*80 - 16*80) = 0.35
+  ev.addFrame("x", labels, {ScoredBox{{115, 100, 145, 180}, 0.9, 10}});
   const auto s = ev.summary();
   EXPECT_EQ(s.true_positives, 0);
   EXPECT_EQ(s.false_positives, 1);
   EXPECT_DOUBLE_EQ(s.recall, 0.0);
   EXPECT_EQ(ev.frames().front().missed_labels.size(), 1u);
+}
+
+// A label names the first and the last pixel of the person; a detection gives pixel edges.
+// The box covering exactly the person's pixels matches perfectly, one a pixel short on the
+// right and at the bottom does not.
+TEST(Evaluation, LabelsNameTheirLastPixelAndDetectionsGiveEdges) {
+  const std::vector<ObjectLabel> labels = {pedestrian(600, 200, 608, 232, 20)};  // 9 x 33 pixels
+  const auto edges = labelEdges(labels[0].box);
+  EXPECT_DOUBLE_EQ(edges[2], 609.0);
+  EXPECT_DOUBLE_EQ(edges[3], 233.0);
+  Evaluator exact;
+  const FrameEvaluation& fe = exact.addFrame("x", labels, {ScoredBox{{600, 200, 609, 233}, 0.9, 20}});
+  ASSERT_EQ(fe.detections.size(), 1u);
+  EXPECT_EQ(fe.detections[0].outcome, Outcome::kTruePositive);
+  EXPECT_DOUBLE_EQ(fe.detections[0].iou, 1.0);
+  EXPECT_DOUBLE_EQ(fe.detections[0].bottom_error_px, 0.0);
+  Evaluator short_box;
+  const FrameEvaluation& fs = short_box.addFrame("x", labels, {ScoredBox{{600, 200, 608, 232}, 0.9, 20}});
+  ASSERT_EQ(fs.detections.size(), 1u);
+  EXPECT_NEAR(fs.detections[0].iou, (8.0 * 32.0) / (9.0 * 33.0), 1e-12);
+  EXPECT_DOUBLE_EQ(fs.detections[0].bottom_error_px, -1.0);
 }
 
 TEST(Evaluation, NoFramesGivesEmptySummary) {

@@ -92,8 +92,9 @@ double bestIouWithPerson(std::uint64_t seed, double z_m, Configure configure) {
   for (const ObjectLabel& l : run.pair.labels) {
     if (l.type != "Pedestrian" || std::abs(l.location_m[2] - z_m) > 0.1) continue;
     ++people;
-    const cv::Rect2f truth(cv::Point2f(static_cast<float>(l.box[0]), static_cast<float>(l.box[1])),
-                           cv::Point2f(static_cast<float>(l.box[2]), static_cast<float>(l.box[3])));
+    const auto e = labelEdges(l.box);
+    const cv::Rect2f truth(cv::Point2f(static_cast<float>(e[0]), static_cast<float>(e[1])),
+                           cv::Point2f(static_cast<float>(e[2]), static_cast<float>(e[3])));
     for (const HumanDetection& h : run.result.humans) best = std::max(best, boxIoU(truth, h.box));
   }
   EXPECT_EQ(people, 1) << "seed " << seed << " at " << z_m << " m";
