@@ -632,10 +632,32 @@ float HumanLocalizer::shapeScoreAt(BoxWorkspace& ws, const cv::Mat& left, const 
   if (params_.shape.flatten_px > 1 && !labels.empty())
     flattenClutter(patch, labels(inside), inside.tl() - crop.tl(), params_.shape.flatten_px, ws.flat_store);
   cv::resize(patch, ws.hog_canvas, canvas, 0, 0, s > 1.0 ? cv::INTER_AREA : cv::INTER_LINEAR);
-  ws.hog.detect(ws.hog_canvas, ws.hog_found, ws.hog_weights, -1e9, cv::Size(kHogCellPx, kHogCellPx), cv::Size(0, 0));
-  ++ws.hog_calls;
-  if (ws.hog_weights.empty()) return static_cast<float>(kNoShape);
-  return static_cast<float>(*std::max_element(ws.hog_weights.begin(), ws.hog_weights.end()));
+  float best = static_cast<float>(kNoShape);
+  auto read = [&](const cv::Mat& c) {
+    ws.hog.detect(c, ws.hog_found, ws.hog_weights, -1e9, cv::Size(kHogCellPx, kHogCellPx), cv::Size(0, 0));
+    ++ws.hog_calls;
+    if (!ws.hog_weights.empty())
+      best = std::max(best, static_cast<float>(*std::max_element(ws.hog_weights.begin(), ws.hog_weights.end())));
+  };
+  read(ws.hog_canvas);
+  // Windows at whole cells start at 0, 8, 16, ... of the canvas; without its first half cell
+  // along an axis (and one whole cell fewer, so that every window still fits) they start at
+  // 4, 12, ...: the three canvases below and the whole one read every half-cell position.
+  // Half a cell does not turn a window that is clearly no person into one.
+  constexpr int kHalfCell = kHogCellPx / 2;
+  if (params_.shape.half_cell_windows && static_cast<double>(best) >= params_.shape.half_cell_margin_min &&
+      canvas.width >= win.width + kHogCellPx &&
+      canvas.height >= win.height + kHogCellPx) {
+    const std::array<cv::Point, 3> offsets = {cv::Point(kHalfCell, 0), cv::Point(0, kHalfCell),
+                                              cv::Point(kHalfCell, kHalfCell)};
+    for (std::size_t i = 0; i < offsets.size(); ++i) {
+      const cv::Point o = offsets[i];
+      const cv::Rect r(o.x, o.y, canvas.width - (o.x > 0 ? kHogCellPx : 0), canvas.height - (o.y > 0 ? kHogCellPx : 0));
+      ws.hog_canvas(r).copyTo(ws.hog_shifted[i]);
+      read(ws.hog_shifted[i]);
+    }
+  }
+  return best;
 }
 
 void flattenClutter(cv::Mat& patch, const cv::Mat& labels, cv::Point at, int k, std::vector<double>& scratch) {

@@ -138,6 +138,12 @@ struct ShapeParams {
   // Clutter flattened before the window is read: image pixels the segmentation labelled
   // ground or background are replaced by their flatten_px x flatten_px box mean (0: off).
   int flatten_px = 5;
+  // The detector reads windows every 8-pixel cell: a person lying between two positions
+  // scores lower than one on a position. The window is also read at the half-cell
+  // positions between them (three more detector calls), the largest margin counting,
+  // unless the margin at the whole cells is below half_cell_margin_min (clearly no person).
+  bool half_cell_windows = true;
+  double half_cell_margin_min = -2.0;
 
   template <class V>
   void visit(V& v) {
@@ -153,6 +159,10 @@ struct ShapeParams {
     v.field("rescale_margin_min", rescale_margin_min, -100.0, 100.0, "",
             "the other shares are tried when the first margin is at least this ...");
     v.field("rescale_margin_max", rescale_margin_max, -100.0, 100.0, "", "... and at most this");
+    v.field("half_cell_windows", half_cell_windows, 0, 1, "",
+            "also read the detector window at the half-cell positions between its 8-pixel steps");
+    v.field("half_cell_margin_min", half_cell_margin_min, -100.0, 100.0, "",
+            "the half-cell positions are read when the margin at the whole cells is at least this");
     v.field("flatten_px", flatten_px, 0, 31, "pixels",
             "ground and background feature pixels inside the window are replaced by their box mean of this size "
             "before HOG reads it (0: the image as it is)");
@@ -166,7 +176,7 @@ struct ScoreParams {
   double bias = 1.074;
   double w_symmetry = 0.655;
   double w_shape = 2.081;
-  double min_score = 0.42;  // detections below are dropped
+  double min_score = 0.433;  // detections below are dropped
 
   template <class V>
   void visit(V& v) {
@@ -255,6 +265,7 @@ class HumanLocalizer {
     cv::HOGDescriptor hog;
     long hog_calls = 0;  // detect() calls made with this workspace
     cv::Mat hog_canvas;
+    std::array<cv::Mat, 3> hog_shifted;  // the canvas without its first half cell: columns, rows, both
     std::vector<cv::Point> hog_found;
     std::vector<double> hog_weights;
     std::vector<double> samples_l;
