@@ -141,7 +141,8 @@ void writeReportHtml(const std::string& dir, const std::string& title, const std
        "figcaption{font-size:13px}</style></head><body>\n";
   h << "<h1>" << escape(title) << "</h1>\n<p>Source: <code>" << escape(source)
     << "</code>. KITTI pedestrian protocol, moderate (box height &ge; 25 px, occlusion &le; 1, truncation &le; 0.3), "
-       "match at IoU &ge; 0.5; DontCare, Cyclist and Person_sitting never count as false positives; "
+       "match at IoU &ge; 0.5 (a label's box, which names its first and last pixel, taken to its pixel edges); "
+       "DontCare, Cyclist and Person_sitting never count as false positives; "
        "AP with 40 recall points.</p>\n";
   for (const auto& n : notes) h << "<p><b>Note:</b> " << escape(n) << "</p>\n";
   h << "<table><tr><th>method</th><th>frames</th><th>pedestrians</th><th>detections</th><th>TP</th><th>FP</th>"
