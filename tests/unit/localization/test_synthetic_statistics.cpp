@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -78,49 +79,49 @@ TEST(SyntheticStatistics, DistanceAndFeetRowOnTwelveSeeds) { runStatistics(12, f
 
 TEST(SyntheticStatistics, DISABLED_RecallFalsePositivesDistanceAndFeetRow) { runStatistics(seedCount(), true); }
 
-// Best IoU of any validated box (whatever its score) with the one pedestrian of scene `seed`
-// at distance `z_m`, detected with `configure` applied to the default parameters.
+// The validated boxes (whatever their score) of scene `seed`, detected with `configure` applied
+// to the default parameters, and the box of its one pedestrian at distance `z_m` as pixel edges.
+struct PersonRun {
+  std::vector<HumanDetection> humans;
+  cv::Rect2f truth;
+};
 template <class Configure>
-double bestIouWithPerson(std::uint64_t seed, double z_m, Configure configure) {
+PersonRun detectPerson(std::uint64_t seed, double z_m, Configure configure) {
   DetectorParams params;
   params.tracking = false;
   params.localizer.score.min_score = 0.0;
   configure(params);
   Detector detector(params);
   const test::SeedDetection run = test::detectSyntheticSeed(detector, seed);
-  double best = 0.0;
+  PersonRun out{run.result.humans, {}};
   int people = 0;
   for (const ObjectLabel& l : run.pair.labels) {
     if (l.type != "Pedestrian" || std::abs(l.location_m[2] - z_m) > 0.1) continue;
     ++people;
     const auto e = labelEdges(l.box);
-    const cv::Rect2f truth(cv::Point2f(static_cast<float>(e[0]), static_cast<float>(e[1])),
+    out.truth = cv::Rect2f(cv::Point2f(static_cast<float>(e[0]), static_cast<float>(e[1])),
                            cv::Point2f(static_cast<float>(e[2]), static_cast<float>(e[3])));
-    for (const HumanDetection& h : run.result.humans) best = std::max(best, boxIoU(truth, h.box));
   }
   EXPECT_EQ(people, 1) << "seed " << seed << " at " << z_m << " m";
+  return out;
+}
+
+// Best IoU of any validated box with that pedestrian.
+template <class Configure>
+double bestIouWithPerson(std::uint64_t seed, double z_m, Configure configure) {
+  const PersonRun run = detectPerson(seed, z_m, configure);
+  double best = 0.0;
+  for (const HumanDetection& h : run.humans) best = std::max(best, boxIoU(run.truth, h.box));
   return best;
 }
 
-// Highest score of a validated box at IoU >= 0.5 with the one pedestrian of scene `seed` at
-// distance `z_m` (0 when there is none), detected with `configure` applied to the defaults.
+// Highest score of a validated box at IoU >= 0.5 with that pedestrian (0 when there is none).
 template <class Configure>
 double bestScoreOnPerson(std::uint64_t seed, double z_m, Configure configure) {
-  DetectorParams params;
-  params.tracking = false;
-  params.localizer.score.min_score = 0.0;
-  configure(params);
-  Detector detector(params);
-  const test::SeedDetection run = test::detectSyntheticSeed(detector, seed);
+  const PersonRun run = detectPerson(seed, z_m, configure);
   double best = 0.0;
-  for (const ObjectLabel& l : run.pair.labels) {
-    if (l.type != "Pedestrian" || std::abs(l.location_m[2] - z_m) > 0.1) continue;
-    const auto e = labelEdges(l.box);
-    const cv::Rect2f truth(cv::Point2f(static_cast<float>(e[0]), static_cast<float>(e[1])),
-                           cv::Point2f(static_cast<float>(e[2]), static_cast<float>(e[3])));
-    for (const HumanDetection& h : run.result.humans)
-      if (boxIoU(truth, h.box) >= 0.5) best = std::max(best, static_cast<double>(h.score));
-  }
+  for (const HumanDetection& h : run.humans)
+    if (boxIoU(run.truth, h.box) >= 0.5) best = std::max(best, static_cast<double>(h.score));
   return best;
 }
 
