@@ -44,6 +44,12 @@ std::array<double, 4> labelEdges(const std::array<double, 4>& label_box) {
   return {label_box[0], label_box[1], label_box[2] + 1.0, label_box[3] + 1.0};
 }
 
+cv::Rect2f labelEdgesRect(const std::array<double, 4>& label_box) {
+  const std::array<double, 4> e = labelEdges(label_box);
+  return {cv::Point2f(static_cast<float>(e[0]), static_cast<float>(e[1])),
+          cv::Point2f(static_cast<float>(e[2]), static_cast<float>(e[3]))};
+}
+
 const char* toString(Outcome outcome) {
   switch (outcome) {
     case Outcome::kTruePositive: return "tp";

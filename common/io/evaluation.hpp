@@ -56,6 +56,8 @@ struct EvaluationParams {
 // pixels would be one pixel wider and taller than its label (IoU 0.86 for a person 9 x 33
 // pixels in size).
 std::array<double, 4> labelEdges(const std::array<double, 4>& label_box);
+// The same as a rectangle (x, y, width, height), as HumanDetection boxes are.
+cv::Rect2f labelEdgesRect(const std::array<double, 4>& label_box);
 
 // A detection as scored: box of pixel edges [left, top, right, bottom].
 struct ScoredBox {

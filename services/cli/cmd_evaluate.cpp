@@ -164,10 +164,7 @@ void runEvaluate(const EvaluateOptions& o) {
         bool positive = false;
         for (const auto& l : pair.labels) {
           if (l.type != "Pedestrian") continue;
-          const auto e = labelEdges(l.box);
-          const cv::Rect2f lb(static_cast<float>(e[0]), static_cast<float>(e[1]), static_cast<float>(e[2] - e[0]),
-                              static_cast<float>(e[3] - e[1]));
-          positive |= boxIoU(h.box, lb) >= 0.5;
+          positive |= boxIoU(h.box, labelEdgesRect(l.box)) >= 0.5;
         }
         samples.push_back({static_cast<double>(h.symmetry), static_cast<double>(h.shape_score), positive});
       }

@@ -17,12 +17,6 @@ using namespace sg;
 
 namespace {
 
-// A label's box (first and last pixel) as the pixel edges detections give.
-cv::Rect2d labelRect(const ObjectLabel& l) {
-  const auto e = labelEdges(l.box);
-  return {e[0], e[1], e[2] - e[0], e[3] - e[1]};
-}
-
 double iouOf(const cv::Rect2d& a, const cv::Rect2d& b) {
   const double inter = (a & b).area();
   return inter > 0 ? inter / (a.area() + b.area() - inter) : 0.0;
@@ -70,7 +64,7 @@ int main(int argc, char** argv) {
     for (std::size_t k = 0; k < pair.labels.size(); ++k) {
       const ObjectLabel& l = pair.labels[k];
       if (!evaluator.isCounted(l)) continue;
-      const cv::Rect2d truth = labelRect(l);
+      const cv::Rect2d truth = cv::Rect2d(labelEdgesRect(l.box));
       double best = 0.0, best_score = 0.0;
       cv::Rect2d best_box;
       for (const HumanDetection& h : result.humans) {
@@ -123,7 +117,7 @@ int main(int argc, char** argv) {
         double best_iou = 0.5;
         for (std::size_t k = 0; k < pair.labels.size(); ++k) {
           const ObjectLabel& l = pair.labels[k];
-          const cv::Rect2d lb = labelRect(l);
+          const cv::Rect2d lb = cv::Rect2d(labelEdgesRect(l.box));
           const double v = iouOf(lb, cv::Rect2d(h.box));
           if (evaluator.isCounted(l) && v >= best_iou) { best_iou = v; label = static_cast<int>(k); }
           else if (!evaluator.isCounted(l) && v >= 0.5 && l.type != "Car" && l.type != "Misc") ignored = 1;

@@ -98,9 +98,7 @@ PersonRun detectPerson(std::uint64_t seed, double z_m, Configure configure) {
   for (const ObjectLabel& l : run.pair.labels) {
     if (l.type != "Pedestrian" || std::abs(l.location_m[2] - z_m) > 0.1) continue;
     ++people;
-    const auto e = labelEdges(l.box);
-    out.truth = cv::Rect2f(cv::Point2f(static_cast<float>(e[0]), static_cast<float>(e[1])),
-                           cv::Point2f(static_cast<float>(e[2]), static_cast<float>(e[3])));
+    out.truth = labelEdgesRect(l.box);
   }
   EXPECT_EQ(people, 1) << "seed " << seed << " at " << z_m << " m";
   return out;
