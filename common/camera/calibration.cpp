@@ -315,9 +315,16 @@ void validateWithoutSize(const StereoRig& rig, const std::string& what) {
 
 void attachMountingFile(StereoCalibration& calib, const std::string& calib_file) {
   if (calib.rig.mounting) return;
-  const fs::path file = fs::path(calib_file).parent_path() / "camera_height_m";
-  std::error_code ec;
-  if (fs::is_regular_file(file, ec)) calib.rig.mounting = Mounting{readNumberFile(file.string()), 0.0};
+  // Beside the file, or, for a KITTI layout's DIR/calib/NNNNNN.txt, in DIR.
+  const fs::path folder = fs::path(calib_file).parent_path();
+  std::vector<fs::path> candidates{folder / "camera_height_m"};
+  if (folder.filename() == "calib") candidates.push_back(folder.parent_path() / "camera_height_m");
+  for (const fs::path& file : candidates) {
+    std::error_code ec;
+    if (!fs::is_regular_file(file, ec)) continue;
+    calib.rig.mounting = Mounting{readNumberFile(file.string()), 0.0};
+    return;
+  }
 }
 
 void attachMountingKeys(StereoCalibration& calib, const CalibDoc& doc) {

@@ -16,7 +16,8 @@
 //                    camera_matrix, distortion_coefficients, rectification_matrix,
 //                    projection_matrix); rig from the projection matrices, right P[0][3] = -f B.
 // Mounting prior: a file `camera_height_m` (one number, metres) beside the calibration
-// file, or the YAML keys camera_height_m / camera_pitch_rad.
+// file (for a KITTI layout's DIR/calib/NNNNNN.txt, also in DIR), or the YAML keys
+// camera_height_m / camera_pitch_rad.
 //
 // Every malformed file throws InputError naming the file and the field.
 #include <string>

@@ -23,6 +23,16 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr int kHogCellPx = 8;  // cell size of both OpenCV people detectors
 constexpr double kNoShape = -5.0;  // HOG margin reported when the box cannot be validated
 constexpr int kMaxBands = 8;       // parallel bands of symmetry axes and of candidate boxes
+constexpr int kSadHalf = 2;        // the leg test's SAD window is 2 * kSadHalf + 1 pixels wide
+
+// Sum of absolute differences of the 5-pixel windows at column x of the left row and
+// x - offset of the right row; the caller keeps both inside the image.
+int sadAt(const std::uint8_t* l, const std::uint8_t* r, int x, int offset) {
+  int s = 0;
+  for (int i = -kSadHalf; i <= kSadHalf; ++i)
+    s += std::abs(static_cast<int>(l[x + i]) - static_cast<int>(r[x + i - offset]));
+  return s;
+}
 
 void requireLess(double lo, double hi, const char* lo_key, const char* hi_key) {
   if (!(lo < hi)) {
@@ -353,11 +363,37 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
   // A walking person's legs are thin and slanted: their matches fall short of the obstacle
   // cells and stay unassigned beside the cluster. When a box is extended sideways, the
   // unassigned features that match the right image at the cluster's offset (+-1) weigh as
-  // the cluster's edges do.
+  // the cluster's edges do. So do the features the removal gave the ground (a leg's grey
+  // matches the ground's at the line's offset by chance) whose 5-pixel window matches at the
+  // cluster's offset clearly better than at the line's: on the rows near the feet, where the
+  // two offsets are alike, they stay the ground's.
   const bool extend_unassigned = cp.extent_unassigned_matches && labelled;
+  const GroundProfile& ground = segmentation.ground;
+  auto groundLegMatch = [&](int iy, int ix) {
+    if (cp.extent_ground_margin <= 0 || ix < kSadHalf || ix + kSadHalf >= left.cols) return false;
+    const float line = iy < ground.horizon_row ? ground.background_offset
+                                               : ground.groundOffsetAt(iy, static_cast<float>(ix));
+    if (!std::isfinite(line) ||
+        std::fabs(line - static_cast<float>(cluster.offset_px)) <= static_cast<float>(cp.extent_ground_clearance_px))
+      return false;
+    const std::uint8_t* l = left.ptr<std::uint8_t>(iy);
+    const std::uint8_t* r = right.ptr<std::uint8_t>(iy);
+    auto lowestSad = [&](int centre) {
+      int best = std::numeric_limits<int>::max();
+      for (int e = std::max(0, centre - 1); e <= centre + 1; ++e)
+        if (ix - e - kSadHalf >= 0) best = std::min(best, sadAt(l, r, ix, e));
+      return best;
+    };
+    const int at_offset = lowestSad(cluster.offset_px);
+    if (at_offset > cp.extent_ground_max_cost) return false;
+    const int at_line = lowestSad(static_cast<int>(std::lround(line)));
+    return at_line != std::numeric_limits<int>::max() && at_offset + cp.extent_ground_margin < at_line;
+  };
   auto extentMatch = [&](int y, int x) {  // region coordinates
     const int iy = roi.y + y, ix = roi.x + x;
-    if (segmentation.labels.ptr<std::uint8_t>(iy)[ix] != kLabelUnassigned) return false;
+    const std::uint8_t label = segmentation.labels.ptr<std::uint8_t>(iy)[ix];
+    if (label == kLabelGround) return groundLegMatch(iy, ix);
+    if (label != kLabelUnassigned) return false;
     const int a = left.ptr<std::uint8_t>(iy)[ix];
     const std::uint8_t* r = right.ptr<std::uint8_t>(iy);
     // Left of the offset the right camera does not see the scene: such a feature cannot be

@@ -50,6 +50,9 @@ struct CandidateParams {
   int extent_gap_px = 2;          // edge-free columns tolerated when growing a box to the object's extent
   bool extent_unassigned_matches = true;  // unassigned features matching at the cluster's offset extend it
   int extent_grey_tolerance = 12;  // grey levels of that match (as the segmentation's)
+  int extent_ground_margin = 60;   // ground-labelled pixels matching the offset better than the line by this
+  int extent_ground_max_cost = 40; // ... within this 5-pixel SAD at the offset (grey levels)
+  double extent_ground_clearance_px = 2.0;  // rows whose line offset is this near the cluster's cannot tell
   bool extent_blind_band = true;   // a box at the image's left edge may grow into the columns
                                    // the right camera cannot see at the cluster's offset
 
@@ -75,6 +78,15 @@ struct CandidateParams {
             "when a box is extended sideways (a walking person's legs)");
     v.field("extent_grey_tolerance", extent_grey_tolerance, 0, 255, "grey levels",
             "grey difference of that match");
+    v.field("extent_ground_margin", extent_ground_margin, 0, 1275, "grey levels",
+            "features the removal gave the ground count as the cluster's when a box is extended sideways if their "
+            "5-pixel SAD at the cluster's offset (+-1) beats that at the ground line's offset (+-1) by this "
+            "(a walking person's legs against the ground behind them); 0 counts none");
+    v.field("extent_ground_max_cost", extent_ground_max_cost, 0, 1275, "grey levels",
+            "largest 5-pixel SAD at the cluster's offset of such a pixel");
+    v.field("extent_ground_clearance_px", extent_ground_clearance_px, 0.0, 20.0, "pixels",
+            "rows whose ground line offset is within this of the cluster's (near the feet) cannot tell the two "
+            "apart: their ground pixels stay the ground's");
     v.field("extent_blind_band", extent_blind_band, 0, 1, "",
             "a box touching the left band that the right camera cannot see at the cluster's offset grows into it "
             "on its edges alone (one-sided); unassigned features there count as the cluster's");
@@ -176,7 +188,7 @@ struct ScoreParams {
   double bias = 1.074;
   double w_symmetry = 0.655;
   double w_shape = 2.081;
-  double min_score = 0.433;  // detections below are dropped
+  double min_score = 0.430;  // detections below are dropped
 
   template <class V>
   void visit(V& v) {

@@ -90,6 +90,19 @@ TEST(KittiCalibration, MountingFileBesideTheCalibration) {
   EXPECT_DOUBLE_EQ(calib.rig.mounting->height_m, 1.65);
 }
 
+TEST(KittiCalibration, MountingFileOfAKittiLayoutAboveItsCalibFolder) {
+  TempDir dir;
+  dir.write("camera_height_m", "1.65\n");
+  const std::string path = dir.write("calib/000001.txt", std::string(kKittiP2) + kKittiP3);
+  const StereoCalibration calib = loadCalibration(path);
+  ASSERT_TRUE(calib.rig.mounting.has_value());
+  EXPECT_DOUBLE_EQ(calib.rig.mounting->height_m, 1.65);
+  // Only a folder named calib looks one level up.
+  TempDir other;
+  other.write("camera_height_m", "1.65\n");
+  EXPECT_FALSE(loadCalibration(other.write("cams/000001.txt", std::string(kKittiP2) + kKittiP3)).rig.mounting);
+}
+
 TEST(KittiCalibration, MalformedMountingFileNamesTheFile) {
   TempDir dir;
   dir.write("camera_height_m", "tall\n");
