@@ -13,6 +13,11 @@
 namespace sg {
 
 namespace {
+constexpr int kRollGreyTolerance = 12;  // grey levels, as the correlation default
+constexpr int kTiltMinRowFeatures = 3;  // a band's row with fewer features says nothing
+}  // namespace
+
+namespace {
 // A row's correlation peak: a local maximum (the first of a plateau) at or above the floor.
 inline bool isRowPeak(const float* s, int d, int offsets, float floor) {
   const bool left_ok = d == 0 || s[d] >= s[d - 1];
@@ -736,9 +741,116 @@ int GroundEstimator::rollBand(int y) const {
   return band > 0 ? std::min(roll_bands_ - 1, (y - roll_first_row_) / band) : 0;
 }
 
-namespace {
-constexpr int kRollGreyTolerance = 12;  // grey levels, as the correlation default
-}  // namespace
+
+bool GroundEstimator::tiltPrior(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
+                                GroundProfile& ground) {
+  if (!params_.prior_tilt || ground.source != GroundSource::kPrior || !rig.mounting) return false;
+  if (ground.offset_per_column != 0.0f || !ground.offset_per_column_by_row.empty()) return false;
+  const float background = ground.background_offset;
+  if (!std::isfinite(background) || background <= 0.0f || left.empty() || left.size() != right.size()) return false;
+  const double slope = rig.groundOffsetPrior(1.0) - rig.groundOffsetPrior(0.0);  // offset per row
+  if (!(slope > 0.0)) return false;
+  const int rows = left.rows, width = left.cols;
+  const int bands = params_.prior_tilt_bands;
+  const int e0 = std::max(0, static_cast<int>(std::floor(background)) - 1);
+  const int e1 = static_cast<int>(std::ceil(background)) + 1;
+  const int first_column = e1;  // the right image shows every offset searched from here on
+  // Each band's lower edge of the background: the row below the first run of rows (from the
+  // top, gaps of background_edge_gap_rows allowed) where at least background_edge_share of the
+  // band's features match at the background's offset (+-1), as backgroundEdgeRow for whole rows.
+  tilt_columns_.clear();
+  tilt_edges_.clear();
+  for (int k = 0; k < bands; ++k) {
+    const int x0 = std::max(first_column, k * width / bands), x1 = (k + 1) * width / bands;
+    if (x1 - x0 < 4) continue;
+    int last = -1;
+    for (int y = 0; y < rows; ++y) {
+      const std::uint8_t* l = left.ptr<std::uint8_t>(y);
+      const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+      int features = 0, matched = 0;
+      for (int x = x0; x < x1; ++x) {
+        if (l[x] == 0) continue;
+        ++features;
+        for (int e = e0; e <= e1; ++e) {
+          if (std::abs(static_cast<int>(l[x]) - static_cast<int>(r[x - e])) <= kRollGreyTolerance) {
+            ++matched;
+            break;
+          }
+        }
+      }
+      if (features >= kTiltMinRowFeatures && matched >= params_.background_edge_share * features) {
+        last = y;
+      } else if (last >= 0 && y - last > params_.background_edge_gap_rows) {
+        break;
+      }
+    }
+    if (last < 0 || last + 1 >= rows) continue;
+    tilt_columns_.push_back(0.5 * (x0 + x1 - 1) - static_cast<double>(ground.reference_column));
+    tilt_edges_.push_back(last + 1.0);
+  }
+  const std::size_t n = tilt_columns_.size();
+  if (n < static_cast<std::size_t>(params_.prior_tilt_min_bands)) return false;
+  // Theil-Sen: the median of the pairwise slopes and the median intercept, then a least-squares
+  // refit over the bands within prior_tilt_inlier_rows of that line.
+  tilt_slopes_.clear();
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = i + 1; j < n; ++j)
+      tilt_slopes_.push_back((tilt_edges_[j] - tilt_edges_[i]) / (tilt_columns_[j] - tilt_columns_[i]));
+  auto median = [](std::vector<double>& v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  double tilt = median(tilt_slopes_);
+  tilt_slopes_.clear();
+  for (std::size_t i = 0; i < n; ++i) tilt_slopes_.push_back(tilt_edges_[i] - tilt * tilt_columns_[i]);
+  double centre = median(tilt_slopes_);
+  double su = 0.0, sv = 0.0, suu = 0.0, suv = 0.0;
+  int inliers = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (std::abs(tilt_edges_[i] - (centre + tilt * tilt_columns_[i])) > params_.prior_tilt_inlier_rows) continue;
+    ++inliers;
+    su += tilt_columns_[i];
+    sv += tilt_edges_[i];
+    suu += tilt_columns_[i] * tilt_columns_[i];
+    suv += tilt_columns_[i] * tilt_edges_[i];
+  }
+  if (inliers < params_.prior_tilt_min_bands) return false;
+  const double det = inliers * suu - su * su;
+  if (!(det > 0.0)) return false;
+  tilt = (inliers * suv - su * sv) / det;
+  centre = (sv - tilt * su) / inliers;
+  // The ground meets the background along edge(x) = centre + tilt * (x - reference), so its
+  // offset changes by -slope * tilt per column.
+  const double per_column = -slope * tilt;
+  if (std::abs(per_column) * width < params_.min_roll_px) return false;
+  if (!(centre > 0.0) || centre >= rows) return false;
+  if (!prior_moved_) {
+    // The level prior stands where the mounting puts it: the ground under the camera. A
+    // transversal slope through that ground leaves its offsets at the reference column as
+    // they are and tilts them across it. (The background's edge may lie elsewhere: a crest
+    // hides the ground beyond it.)
+    ground.offset_per_column = static_cast<float>(per_column);
+    return true;
+  }
+  // The prior moved to the background's edge of whole rows stands at the lowest point of a
+  // slanted edge: it is placed on the fitted edge at the reference column instead.
+  const int horizon = static_cast<int>(std::ceil(centre));
+  // A band's row counts as the background while its features match within one offset of
+  // the background's: the ground's rows do too until their offset passes it by one, so the
+  // edge lies where the ground's offset is the background's plus one.
+  const double at_edge = refinedBackground(background) + 1.0;
+  for (int y = 0; y < rows; ++y)
+    ground.offset_per_row[static_cast<std::size_t>(y)] =
+        y < horizon ? background : static_cast<float>(at_edge + slope * (y - centre));
+  ground.offset_per_column = static_cast<float>(per_column);
+  ground.horizon_row = horizon;
+  ground.vertices.clear();
+  ground.vertices.emplace_back(background, 0.0f);
+  ground.vertices.emplace_back(background, static_cast<float>(horizon));
+  if (horizon < rows)
+    ground.vertices.emplace_back(ground.offset_per_row[static_cast<std::size_t>(rows - 1)], static_cast<float>(rows - 1));
+  return true;
+}
 
 void GroundEstimator::estimateRollReference(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
                                             GroundProfile& ground) {
@@ -1152,6 +1264,7 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
   // the rows to meet it there replaces the prior when the level one is refuted (many rows show
   // something farther than its ground), or when neither is and more rows support it (a crest
   // hiding the far ground also moves the edge, while the near ground stays level).
+  prior_moved_ = false;
   if (out.source == GroundSource::kPrior && params_.prior_background_edge && background > 0.0f) {
     const int edge = backgroundEdgeRow(score, background);
     const double slope = rig.groundOffsetPrior(1.0) - rig.groundOffsetPrior(0.0);
@@ -1169,6 +1282,7 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, co
           refuted(beyond_level, beyond_moved) ||
           (!refuted(beyond_moved, beyond_level) &&
            support(moved, edge, rows, offsets, nullptr) > support(level, horizon, rows, offsets, nullptr));
+      prior_moved_ = use_moved;
       if (use_moved) {
         for (int y = 0; y < rows; ++y)
           out.offset_per_row[static_cast<std::size_t>(y)] = y < edge ? background : static_cast<float>(moved.offsetAt(y));

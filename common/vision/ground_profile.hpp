@@ -66,6 +66,14 @@ struct GroundParams {
   int background_edge_gap_rows = 4;    // rows without it tolerated inside the background
   double refuting_ratio = 3.0;         // a line is refuted by min_support_rows rows beyond it, this many
                                        // times the other line's
+  // On a transversal slope the ground meets the background along a slanted line. Where the
+  // prior stands in for the ground line, the background's lower edge in column bands gives
+  // that line: the prior is tilted to meet it (its offset per column) and placed where it
+  // crosses the reference column.
+  bool prior_tilt = true;
+  int prior_tilt_bands = 16;            // column bands whose background edge is found
+  double prior_tilt_inlier_rows = 3.0;  // a band's edge within this of the fitted line agrees
+  int prior_tilt_min_bands = 8;         // fewest agreeing bands for a tilt
 
   template <class V>
   void visit(V& v) {
@@ -101,6 +109,12 @@ struct GroundParams {
             "rows without the background tolerated inside it");
     v.field("refuting_ratio", refuting_ratio, 1.0, 1000.0, "",
             "rows beyond a prior line, relative to the other line's, that refute it");
+    v.field("prior_tilt", prior_tilt, 0, 1, "",
+            "tilt the mounting prior to the background's lower edge measured in column bands (transversal slope)");
+    v.field("prior_tilt_bands", prior_tilt_bands, 3, 256, "", "column bands whose background edge is found");
+    v.field("prior_tilt_inlier_rows", prior_tilt_inlier_rows, 0.0, 100.0, "rows",
+            "a band's edge within this of the fitted line agrees with it");
+    v.field("prior_tilt_min_bands", prior_tilt_min_bands, 2, 256, "", "fewest agreeing bands for a tilt");
   }
   void validate() const {
     validateParams(*this, "ground");
@@ -155,9 +169,21 @@ class GroundEstimator {
   void estimateRollReference(const cv::Mat& left_features, const cv::Mat& right_features, const StereoRig& rig,
                              GroundProfile& ground);
 
+  // For a line from the mounting prior (ground.source == kPrior) and no transversal slope
+  // measured: finds the background's lower edge in prior_tilt_bands column bands of the
+  // feature images and fits a line through them. When enough bands agree on a tilt that
+  // changes the offset by min_roll_px or more across the image, the prior gets that offset per
+  // column; a prior moved to the background's edge is also placed where the fitted edge
+  // crosses the reference column (the level prior keeps its rows: the mounting puts it under
+  // the camera). Returns true when the line was tilted. Plain code shared by the fast and the
+  // reference paths.
+  bool tiltPrior(const cv::Mat& left_features, const cv::Mat& right_features, const StereoRig& rig,
+                 GroundProfile& ground);
+
   const GroundParams& params() const { return params_; }
 
  private:
+  std::vector<double> tilt_columns_, tilt_edges_, tilt_slopes_;  // tiltPrior's bands, reused
   struct Peak {
     int row;
     int offset;
@@ -278,6 +304,7 @@ class GroundEstimator {
   std::optional<GroundLine> second_line_;
   std::optional<GroundLine> main_hough_;
   std::optional<GroundLine> second_hough_;
+  bool prior_moved_ = false;  // the last compute's prior was moved to the background's edge
 };
 
 }  // namespace sg

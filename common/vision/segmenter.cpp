@@ -78,6 +78,8 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
     if (out.ground.source == GroundSource::kHough) measured_ground_ = out.ground;
     if (params_.parallel) ground_.estimateRoll(left_features, right_features, rig, out.ground, &correlator_.strips());
     else ground_.estimateRollReference(left_features, right_features, rig, out.ground);
+    // A prior the strips could not tilt (ground without texture) meets the background's edge.
+    ground_.tiltPrior(left_features, right_features, rig, out.ground);
   };
   groundAndRoll(false);
   // A weakly supported line stands only when the strips measured the ground's transversal
