@@ -15,9 +15,22 @@ namespace sg {
 namespace {
 constexpr int kRollGreyTolerance = 12;  // grey levels, as the correlation default
 constexpr int kTiltMinRowFeatures = 3;  // a band's row with fewer features says nothing
-}  // namespace
 
-namespace {
+// The row below the first run of rows, from the top, for which `background(y)` holds, gaps
+// of at most `gap_rows` rows inside it; 0 when no row does. Rows after the run are not asked.
+template <class IsBackground>
+int rowBelowTopRun(int rows, int gap_rows, IsBackground background) {
+  int last = -1;
+  for (int y = 0; y < rows; ++y) {
+    if (background(y)) {
+      last = y;
+    } else if (last >= 0 && y - last > gap_rows) {
+      break;
+    }
+  }
+  return last + 1;
+}
+
 // A row's correlation peak: a local maximum (the first of a plateau) at or above the floor.
 inline bool isRowPeak(const float* s, int d, int offsets, float floor) {
   const bool left_ok = d == 0 || s[d] >= s[d - 1];
@@ -702,16 +715,10 @@ int GroundEstimator::backgroundEdgeRow(const cv::Mat& score, float background) c
   const int d0 = std::max(0, static_cast<int>(std::floor(background)) - 1);
   const int d1 = std::min(score.cols - 1, static_cast<int>(std::ceil(background)) + 1);
   if (d0 > d1) return 0;
-  int last = -1;
-  for (int y = 0; y < score.rows; ++y) {
+  return rowBelowTopRun(score.rows, params_.background_edge_gap_rows, [&](int y) {
     const float* s = score.ptr<float>(y);
-    if (*std::max_element(s + d0, s + d1 + 1) >= params_.background_edge_share) {
-      last = y;
-    } else if (last >= 0 && y - last > params_.background_edge_gap_rows) {
-      break;
-    }
-  }
-  return last + 1;
+    return *std::max_element(s + d0, s + d1 + 1) >= params_.background_edge_share;
+  });
 }
 
 bool GroundEstimator::rollSetUp(const cv::Mat& left, const StereoRig& rig, GroundProfile& ground) {
@@ -741,7 +748,6 @@ int GroundEstimator::rollBand(int y) const {
   return band > 0 ? std::min(roll_bands_ - 1, (y - roll_first_row_) / band) : 0;
 }
 
-
 bool GroundEstimator::tiltPrior(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
                                 GroundProfile& ground) {
   if (!params_.prior_tilt || ground.source != GroundSource::kPrior || !rig.mounting) return false;
@@ -755,16 +761,16 @@ bool GroundEstimator::tiltPrior(const cv::Mat& left, const cv::Mat& right, const
   const int e0 = std::max(0, static_cast<int>(std::floor(background)) - 1);
   const int e1 = static_cast<int>(std::ceil(background)) + 1;
   const int first_column = e1;  // the right image shows every offset searched from here on
-  // Each band's lower edge of the background: the row below the first run of rows (from the
-  // top, gaps of background_edge_gap_rows allowed) where at least background_edge_share of the
-  // band's features match at the background's offset (+-1), as backgroundEdgeRow for whole rows.
+  // Each band's lower edge of the background, by backgroundEdgeRow's rule for whole rows: the
+  // row below the first run of rows (from the top, gaps of background_edge_gap_rows allowed)
+  // where at least background_edge_share of the band's features match at the background's
+  // offset (+-1).
   tilt_columns_.clear();
   tilt_edges_.clear();
   for (int k = 0; k < bands; ++k) {
     const int x0 = std::max(first_column, k * width / bands), x1 = (k + 1) * width / bands;
     if (x1 - x0 < 4) continue;
-    int last = -1;
-    for (int y = 0; y < rows; ++y) {
+    const int edge = rowBelowTopRun(rows, params_.background_edge_gap_rows, [&](int y) {
       const std::uint8_t* l = left.ptr<std::uint8_t>(y);
       const std::uint8_t* r = right.ptr<std::uint8_t>(y);
       int features = 0, matched = 0;
@@ -778,15 +784,11 @@ bool GroundEstimator::tiltPrior(const cv::Mat& left, const cv::Mat& right, const
           }
         }
       }
-      if (features >= kTiltMinRowFeatures && matched >= params_.background_edge_share * features) {
-        last = y;
-      } else if (last >= 0 && y - last > params_.background_edge_gap_rows) {
-        break;
-      }
-    }
-    if (last < 0 || last + 1 >= rows) continue;
+      return features >= kTiltMinRowFeatures && matched >= params_.background_edge_share * features;
+    });
+    if (edge <= 0 || edge >= rows) continue;
     tilt_columns_.push_back(0.5 * (x0 + x1 - 1) - static_cast<double>(ground.reference_column));
-    tilt_edges_.push_back(last + 1.0);
+    tilt_edges_.push_back(static_cast<double>(edge));
   }
   const std::size_t n = tilt_columns_.size();
   if (n < static_cast<std::size_t>(params_.prior_tilt_min_bands)) return false;

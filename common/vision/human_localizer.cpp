@@ -14,6 +14,7 @@
 
 #include "config/errors.hpp"
 #include "vision/parallel_bands.hpp"
+#include "vision/window_sad.hpp"
 
 namespace sg {
 
@@ -23,16 +24,6 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr int kHogCellPx = 8;  // cell size of both OpenCV people detectors
 constexpr double kNoShape = -5.0;  // HOG margin reported when the box cannot be validated
 constexpr int kMaxBands = 8;       // parallel bands of symmetry axes and of candidate boxes
-constexpr int kSadHalf = 2;        // the leg test's SAD window is 2 * kSadHalf + 1 pixels wide
-
-// Sum of absolute differences of the 5-pixel windows at column x of the left row and
-// x - offset of the right row; the caller keeps both inside the image.
-int sadAt(const std::uint8_t* l, const std::uint8_t* r, int x, int offset) {
-  int s = 0;
-  for (int i = -kSadHalf; i <= kSadHalf; ++i)
-    s += std::abs(static_cast<int>(l[x + i]) - static_cast<int>(r[x + i - offset]));
-  return s;
-}
 
 void requireLess(double lo, double hi, const char* lo_key, const char* hi_key) {
   if (!(lo < hi)) {
@@ -370,24 +361,18 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
   const bool extend_unassigned = cp.extent_unassigned_matches && labelled;
   const GroundProfile& ground = segmentation.ground;
   auto groundLegMatch = [&](int iy, int ix) {
-    if (cp.extent_ground_margin <= 0 || ix < kSadHalf || ix + kSadHalf >= left.cols) return false;
-    const float line = iy < ground.horizon_row ? ground.background_offset
-                                               : ground.groundOffsetAt(iy, static_cast<float>(ix));
+    if (cp.extent_ground_margin <= 0 || ix < kSadHalfWidth || ix + kSadHalfWidth >= left.cols) return false;
+    const float line = ground.lineOffsetAt(iy, static_cast<float>(ix));
     if (!std::isfinite(line) ||
         std::fabs(line - static_cast<float>(cluster.offset_px)) <= static_cast<float>(cp.extent_ground_clearance_px))
       return false;
     const std::uint8_t* l = left.ptr<std::uint8_t>(iy);
     const std::uint8_t* r = right.ptr<std::uint8_t>(iy);
-    auto lowestSad = [&](int centre) {
-      int best = std::numeric_limits<int>::max();
-      for (int e = std::max(0, centre - 1); e <= centre + 1; ++e)
-        if (ix - e - kSadHalf >= 0) best = std::min(best, sadAt(l, r, ix, e));
-      return best;
-    };
-    const int at_offset = lowestSad(cluster.offset_px);
+    constexpr int kNone = std::numeric_limits<int>::max();
+    const int at_offset = lowestSadAround(l, r, ix, cluster.offset_px, kNone);
     if (at_offset > cp.extent_ground_max_cost) return false;
-    const int at_line = lowestSad(static_cast<int>(std::lround(line)));
-    return at_line != std::numeric_limits<int>::max() && at_offset + cp.extent_ground_margin < at_line;
+    const int at_line = lowestSadAround(l, r, ix, static_cast<int>(std::lround(line)), kNone);
+    return at_line != kNone && at_offset + cp.extent_ground_margin < at_line;
   };
   auto extentMatch = [&](int y, int x) {  // region coordinates
     const int iy = roi.y + y, ix = roi.x + x;

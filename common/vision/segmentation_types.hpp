@@ -44,6 +44,9 @@ struct GroundProfile {
   }
   int horizon_row = -1;                // rows above it belong to the background line
   float background_offset = kUnknown;  // offset of the vertical background line (pixels)
+  // The polyline's offset at row y and column x: the background's above the horizon, the
+  // ground's from it down.
+  float lineOffsetAt(int y, float x) const { return y < horizon_row ? background_offset : groundOffsetAt(y, x); }
   std::vector<cv::Point2f> vertices;   // polyline vertices (x = offset, y = row), top to bottom
   GroundSource source = GroundSource::kNone;
 };

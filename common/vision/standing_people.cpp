@@ -7,36 +7,19 @@
 #include <limits>
 
 #include "config/errors.hpp"
+#include "vision/window_sad.hpp"
 
 namespace sg {
 
 namespace {
 
-constexpr int kHalf = 2;  // the SAD window is 2 * kHalf + 1 pixels wide
+constexpr int kHalf = kSadHalfWidth;
 constexpr int kNoCost = 0xFFFE;  // line cost where no offset can be compared
-
-// Sum of absolute differences of the 5-pixel windows at column x of the left row and
-// x - offset of the right row; the caller keeps both inside the image.
-inline int sadAt(const std::uint8_t* l, const std::uint8_t* r, int x, int offset) {
-  int s = 0;
-  for (int i = -kHalf; i <= kHalf; ++i) s += std::abs(static_cast<int>(l[x + i]) - static_cast<int>(r[x + i - offset]));
-  return s;
-}
-
-// The ground/background line's offset at (y, x); NaN where it is unknown.
-inline float lineOffsetAt(const GroundProfile& ground, int y, int x) {
-  if (y < ground.horizon_row) return ground.background_offset;
-  return ground.groundOffsetAt(y, static_cast<float>(x));
-}
 
 // The reference's per-pixel line cost: the lowest SAD at the line's offset +-1 (kNoCost
 // where no offset can be compared). lineCostRow computes the same for a whole row.
 inline int lineCost(const std::uint8_t* l, const std::uint8_t* r, int x, float line) {
-  const int g = static_cast<int>(std::lround(line));
-  int best = kNoCost;
-  for (int e = g - 1; e <= g + 1; ++e)
-    if (e >= 0 && x - e - kHalf >= 0) best = std::min(best, sadAt(l, r, x, e));
-  return best;
+  return lowestSadAround(l, r, x, static_cast<int>(std::lround(line)), kNoCost);
 }
 
 // Rows whose line offset is within the clearance of d cannot tell the two apart.
@@ -59,7 +42,7 @@ const std::uint16_t* StandingPeopleFinder::lineCostRow(int y, const cv::Mat& lef
   int g_lo = std::numeric_limits<int>::max(), g_hi = std::numeric_limits<int>::min();
   int* gi = line_round_.data();
   for (int x = 0; x < width; ++x) {
-    const float line = lineOffsetAt(ground, y, x);
+    const float line = ground.lineOffsetAt(y, static_cast<float>(x));
     gi[x] = std::isfinite(line) ? static_cast<int>(std::lround(line)) : std::numeric_limits<int>::min() / 2;
     if (!std::isfinite(line)) continue;
     g_lo = std::min(g_lo, gi[x]);
@@ -175,7 +158,7 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
     if (l[x] == 0 || x - d - kHalf < 0) return false;
     const int cd = sadAt(l, r, x, d);
     if (cd > p.max_cost) return false;
-    const int line_cost = reference ? lineCost(l, r, x, lineOffsetAt(ground, y, x))
+    const int line_cost = reference ? lineCost(l, r, x, ground.lineOffsetAt(y, static_cast<float>(x)))
                                     : static_cast<int>(lineCostRow(y, left_features, right_features, ground)[x]);
     return cd + p.cost_margin < line_cost;
   };
@@ -203,7 +186,7 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
         int count = 0, cells = 0;
         for (int y = std::max(0, c - rows); y < c; ++y) {
           if (y % step != 0) continue;
-          const float line = lineOffsetAt(ground, y, x);
+          const float line = ground.lineOffsetAt(y, static_cast<float>(x));
           if (!std::isfinite(line) || !clearOf(line, d, clearance)) continue;
           ++cells;
           if (labels.ptr<std::uint8_t>(y)[x] >= kLabelFirstObstacle) continue;
@@ -344,7 +327,7 @@ int StandingPeopleFinder::run(const cv::Mat& left_features, const cv::Mat& right
     const int bottom = std::min(c, height - 1);
     column_count_.assign(static_cast<std::size_t>(width), 0);
     auto ambiguous = [&](int y, int x) {
-      const float line = lineOffsetAt(ground, y, x);
+      const float line = ground.lineOffsetAt(y, static_cast<float>(x));
       return !std::isfinite(line) || !clearOf(line, win.offset, clearance);
     };
     for (int y = top_limit; y <= bottom; ++y) {
