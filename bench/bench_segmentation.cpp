@@ -68,7 +68,7 @@ Frame prepareFrame(const cv::Mat& left, const cv::Mat& right, const sg::StereoRi
   sg::Correlator corr(cp);
   corr.computeReference(f.left_features, f.right_features, f.score, f.matches);
   sg::GroundEstimator g;
-  g.compute(f.score, rig, nullptr, 0, f.ground);
+  g.compute(f.score, f.matches, rig, nullptr, 0, f.ground);
   g.estimateRoll(f.left_features, f.right_features, rig, f.ground);
   sg::FeatureRemover remover;
   remover.computeReference(f.left_features, f.right_features, f.ground, f.remaining, f.labels, f.changed_rows);
@@ -214,10 +214,10 @@ void registerStages() {
         auto profile = std::make_shared<sg::GroundProfile>();
         return [=](const Frame& f) {
           if (ref) {
-            g->computeReference(f.score, f.rig, nullptr, 0, *profile);
+            g->computeReference(f.score, f.matches, f.rig, nullptr, 0, *profile);
             g->estimateRollReference(f.left_features, f.right_features, f.rig, *profile);
           } else {
-            g->compute(f.score, f.rig, nullptr, 0, *profile);
+            g->compute(f.score, f.matches, f.rig, nullptr, 0, *profile);
             g->estimateRoll(f.left_features, f.right_features, f.rig, *profile);
           }
           benchmark::DoNotOptimize(profile->offset_per_row.data());

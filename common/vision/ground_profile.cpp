@@ -644,6 +644,10 @@ std::optional<GroundLine> GroundEstimator::farSegment(const cv::Mat& score, cons
     if (y < j - shared) gained -= line_support_[static_cast<std::size_t>(y) + 1] - line_support_[static_cast<std::size_t>(y)];
   }
   if (gained < need) return std::nullopt;
+  // A rise ahead flattens the far segment: slope ratio h / (h + g Z0) for a camera h above the
+  // ground and a grade g from Z0 on (0.27 for a 15 % grade 30 m ahead of a 1.65 m camera).
+  // Far flatter, it is something standing (the offset of poles over their rows), not ground.
+  if (far.slope < params_.far_min_slope_ratio * line.slope) return std::nullopt;
   far.support_rows = support(far, top, j, score.cols, nullptr);
   return far;
 }
@@ -653,9 +657,18 @@ float GroundEstimator::backgroundOffset(const cv::Mat& score, int rows_above, co
   if (rows == 0) return 0.0f;
   std::vector<float>& sums = background_sums_;
   sums.assign(static_cast<std::size_t>(score.cols), 0.0f);
+  // A row's score is its matches over its features (floored at min_row_features). For the
+  // background the floor is background_row_share of the width: a row whose few features are a
+  // pole against a plain sky scores as high as a row of textured hills, but says less.
   for (int y = 0; y < rows; ++y) {
     const float* s = score.ptr<float>(y);
-    for (int d = 0; d < score.cols; ++d) sums[static_cast<std::size_t>(d)] += s[d];
+    if (matches_ != nullptr) {
+      const int* m = matches_->ptr<int>(y);
+      for (int d = 0; d < score.cols; ++d)
+        sums[static_cast<std::size_t>(d)] += std::min(s[d], static_cast<float>(m[d]) * per_match_);
+    } else {
+      for (int d = 0; d < score.cols; ++d) sums[static_cast<std::size_t>(d)] += s[d];
+    }
   }
   // The strongest column first; one that would hide measured ground is something standing in
   // front (a pole or a trunk taller than the view, alone against a plain sky), not the background.
@@ -1124,22 +1137,31 @@ void GroundEstimator::rollFit(int w, GroundProfile& ground) {
       ground.vertices.emplace_back(ground.offset_per_row[static_cast<std::size_t>(y)], static_cast<float>(y));
 }
 
-void GroundEstimator::compute(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous,
-                              int previous_age_frames, GroundProfile& out, bool refuse_measured) {
-  computeImpl(score, rig, previous, previous_age_frames, out, false, refuse_measured);
+void GroundEstimator::compute(const cv::Mat& score, const cv::Mat& matches, const StereoRig& rig,
+                              const GroundProfile* previous, int previous_age_frames, GroundProfile& out,
+                              bool refuse_measured) {
+  computeImpl(score, matches, rig, previous, previous_age_frames, out, false, refuse_measured);
 }
 
-void GroundEstimator::computeReference(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous,
-                                       int previous_age_frames, GroundProfile& out, bool refuse_measured) {
-  computeImpl(score, rig, previous, previous_age_frames, out, true, refuse_measured);
+void GroundEstimator::computeReference(const cv::Mat& score, const cv::Mat& matches, const StereoRig& rig,
+                                       const GroundProfile* previous, int previous_age_frames, GroundProfile& out,
+                                       bool refuse_measured) {
+  computeImpl(score, matches, rig, previous, previous_age_frames, out, true, refuse_measured);
 }
 
-void GroundEstimator::computeImpl(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous,
-                                  int previous_age_frames, GroundProfile& out, bool reference, bool refuse_measured) {
+void GroundEstimator::computeImpl(const cv::Mat& score, const cv::Mat& matches, const StereoRig& rig,
+                                  const GroundProfile* previous, int previous_age_frames, GroundProfile& out,
+                                  bool reference, bool refuse_measured) {
   auto houghOf = [&](const std::vector<std::uint8_t>& use, int rows, int offsets) {
     return reference ? hough(use, rows, offsets) : houghFast(use, rows, offsets);
   };
   if (score.empty() || score.type() != CV_32F) throw InputError("ground: the correlation image must be CV_32F");
+  if (!matches.empty() && (matches.type() != CV_32S || matches.size() != score.size()))
+    throw InputError("ground: the correlation's counts must be CV_32S of the score's size");
+  // The background's rows: matches over at least background_row_share of the width's pixels.
+  matches_ = matches.empty() ? nullptr : &matches;
+  const double width = rig.width > 0 ? rig.width : score.cols;
+  per_match_ = static_cast<float>(1.0 / std::max(1.0, params_.background_row_share * width));
   const int rows = score.rows;
   const int offsets = score.cols;
   main_line_.reset();

@@ -48,8 +48,10 @@ struct GroundParams {
   // meeting the line (farSegment) replaces the pass's far one, or stands alone, when it explains
   // min_segment_rows more rows above its junction than the line does.
   bool far_segment_search = true;
+  double far_min_slope_ratio = 0.2;   // flattest far segment, as a share of the line's slope
   // Background line above the horizon.
   float min_background_score = 0.5f;  // summed score of the best background column; below: offset 0 (infinity)
+  double background_row_share = 0.3;  // a row's background score: its matches over at least this share of the width
   // Fallback when the ground is not measured.
   // Transversal slope (beyond the paper): offsets of column strips around the line.
   int roll_strips = 8;                // column strips measured
@@ -92,8 +94,12 @@ struct GroundParams {
     v.field("piecewise", piecewise, 0, 1, "", "fit a second ground segment (slope change)");
     v.field("far_segment_search", far_segment_search, 0, 1, "",
             "with piecewise: search a far segment meeting the line at a junction row (slope change ahead)");
+    v.field("far_min_slope_ratio", far_min_slope_ratio, 0.0, 1.0, "",
+            "flattest far segment as a share of the line's slope (a rise ahead; flatter: poles standing)");
     v.field("min_segment_rows", min_segment_rows, 1, 100000, "rows", "support needed by the second segment");
     v.field("min_background_score", min_background_score, 0.0, 1e9, "score", "weakest accepted background line");
+    v.field("background_row_share", background_row_share, 0.0, 1.0, "",
+            "a row's score for the background: its matches over at least this share of the image width (rows of few features say less)");
     v.field("roll_strips", roll_strips, 0, 64, "", "column strips for the transversal slope (0 = off)");
     v.field("roll_search_px", roll_search_px, 1, 64, "pixels", "offsets searched around the line per strip");
     v.field("min_roll_px", min_roll_px, 0.0, 100.0, "pixels", "smallest offset change across the image that counts");
@@ -138,15 +144,17 @@ class GroundEstimator {
  public:
   explicit GroundEstimator(const GroundParams& params = {});
 
-  // score: CV_32F rows x D correlation image. `previous`: the last measured
-  // profile and its age in frames (for the fallback), or nullptr.
+  // score: CV_32F rows x D correlation image; matches: its CV_32S counts (rows with few
+  // features weigh less for the background line; empty: every row's score counts in full). `previous`: the last
+  // measured profile and its age in frames (for the fallback), or nullptr.
   // Fast path (table-driven Hough votes, vectorised neighbourhood search, no
   // allocation once sized); bit-identical to computeReference.
   // refuse_measured: the measured line is not used (it was not corroborated): the fallback is.
-  void compute(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous, int previous_age_frames,
-               GroundProfile& out, bool refuse_measured = false);
-  void computeReference(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous,
-                        int previous_age_frames, GroundProfile& out, bool refuse_measured = false);
+  void compute(const cv::Mat& score, const cv::Mat& matches, const StereoRig& rig, const GroundProfile* previous,
+               int previous_age_frames, GroundProfile& out, bool refuse_measured = false);
+  void computeReference(const cv::Mat& score, const cv::Mat& matches, const StereoRig& rig,
+                        const GroundProfile* previous, int previous_age_frames, GroundProfile& out,
+                        bool refuse_measured = false);
   // Whether the last compute's measured line needs the strips' corroboration
   // (corroborated_support_fraction): false when none was measured.
   bool needsCorroboration() const { return needs_corroboration_; }
@@ -189,8 +197,8 @@ class GroundEstimator {
     int offset;
     float weight;
   };
-  void computeImpl(const cv::Mat& score, const StereoRig& rig, const GroundProfile* previous, int previous_age_frames,
-                   GroundProfile& out, bool reference, bool refuse_measured);
+  void computeImpl(const cv::Mat& score, const cv::Mat& matches, const StereoRig& rig, const GroundProfile* previous,
+                   int previous_age_frames, GroundProfile& out, bool reference, bool refuse_measured);
   void findPeaksReference(const cv::Mat& score);
   void keepStrongest(std::vector<Peak>& row_peaks);  // appends a row's strongest peaks to peaks_
   void findPeaks(const cv::Mat& score);  // vector test of the local maxima; same peaks as findPeaksReference
@@ -305,6 +313,8 @@ class GroundEstimator {
   std::optional<GroundLine> main_hough_;
   std::optional<GroundLine> second_hough_;
   bool prior_moved_ = false;  // the last compute's prior was moved to the background's edge
+  const cv::Mat* matches_ = nullptr;  // the counts of the current compute (null: every row's score counts in full)
+  float per_match_ = 1.0f;            // 1 / (background_row_share x width): the most one match adds to a row's score
 };
 
 }  // namespace sg

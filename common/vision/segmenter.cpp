@@ -70,9 +70,9 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
   const GroundProfile* previous = have_previous_ ? &previous_ground_ : nullptr;
   auto groundAndRoll = [&](bool refuse_measured) {
     if (params_.parallel)
-      ground_.compute(out.correlation_initial, rig, previous, previous_age_frames_, out.ground, refuse_measured);
+      ground_.compute(out.correlation_initial, matches_, rig, previous, previous_age_frames_, out.ground, refuse_measured);
     else
-      ground_.computeReference(out.correlation_initial, rig, previous, previous_age_frames_, out.ground,
+      ground_.computeReference(out.correlation_initial, matches_, rig, previous, previous_age_frames_, out.ground,
                                refuse_measured);
     // The line as measured, before the strips correct it: what a later frame falls back to.
     if (out.ground.source == GroundSource::kHough) measured_ground_ = out.ground;

@@ -169,7 +169,7 @@ TEST_P(NoAllocation, FastStagesAllocateNothingPerFrame) {
       fx.compute(all_[i].left, lf[i]);
       fx.compute(all_[i].right, rf[i]);
       corr.compute(lf[i], rf[i], score[i], matches[i]);
-      g.compute(score[i], all_[i].rig, nullptr, 0, ground[i]);
+      g.compute(score[i], matches[i], all_[i].rig, nullptr, 0, ground[i]);
       g.estimateRoll(lf[i], rf[i], all_[i].rig, ground[i]);
       remover.compute(lf[i], rf[i], ground[i], remaining[i], labels, changed[i]);
     }
@@ -194,7 +194,7 @@ TEST_P(NoAllocation, FastStagesAllocateNothingPerFrame) {
   GroundProfile profile;
   EXPECT_EQ(0, allocationsInSteadyState(n, [&](int i) {
               const auto k = static_cast<std::size_t>(i);
-              g.compute(score[k], all_[k].rig, nullptr, 0, profile);
+              g.compute(score[k], matches[k], all_[k].rig, nullptr, 0, profile);
               g.estimateRoll(lf[k], rf[k], all_[k].rig, profile);
             }))
       << "ground and transversal slope";

@@ -75,8 +75,8 @@ TEST_P(ParallelExact, EveryStageMatchesItsReference) {
 
     GroundEstimator ground;
     GroundProfile profile, profile_ref;
-    ground.computeReference(s_ref, p.rig, nullptr, 0, profile_ref);
-    ground.compute(s_ref, p.rig, nullptr, 0, profile);
+    ground.computeReference(s_ref, m_ref, p.rig, nullptr, 0, profile_ref);
+    ground.compute(s_ref, m_ref, p.rig, nullptr, 0, profile);
     ASSERT_EQ(profile.source, profile_ref.source);
     ASSERT_EQ(profile.horizon_row, profile_ref.horizon_row) << "ground horizon";
     ASSERT_EQ(0, std::memcmp(profile.offset_per_row.data(), profile_ref.offset_per_row.data(),
@@ -213,8 +213,8 @@ TEST(FastGround, WideRollSearchMatchesTheReference) {
     corr.compute(lf, rf, s, m);
     GroundEstimator ground(gp);
     GroundProfile a, b;
-    ground.computeReference(s, p.rig, nullptr, 0, a);
-    ground.compute(s, p.rig, nullptr, 0, b);
+    ground.computeReference(s, m, p.rig, nullptr, 0, a);
+    ground.compute(s, m, p.rig, nullptr, 0, b);
     GroundProfile c = b;
     ground.estimateRollReference(lf, rf, p.rig, a);
     ground.estimateRoll(lf, rf, p.rig, b);
@@ -257,8 +257,8 @@ TEST(FastGround, HoughSlopeGridsMatchTheReference) {
       gp.slope_step = g.step;
       GroundEstimator ref(gp), fast(gp);
       GroundProfile a, b;
-      ref.computeReference(s, p.rig, nullptr, 0, a);
-      fast.compute(s, p.rig, nullptr, 0, b);
+      ref.computeReference(s, m, p.rig, nullptr, 0, a);
+      fast.compute(s, m, p.rig, nullptr, 0, b);
       ASSERT_TRUE(sameLine(ref.mainLine(), fast.mainLine())) << "main line";
       ASSERT_TRUE(sameLine(ref.secondLine(), fast.secondLine())) << "second line";
       ASSERT_EQ(a.source, b.source);
@@ -266,7 +266,7 @@ TEST(FastGround, HoughSlopeGridsMatchTheReference) {
       ASSERT_EQ(0, std::memcmp(a.offset_per_row.data(), b.offset_per_row.data(), a.offset_per_row.size() * sizeof(float)));
       ASSERT_EQ(a.vertices, b.vertices);
       // Twice on the same estimator: scratch from the previous frame changes nothing.
-      fast.compute(s, p.rig, nullptr, 0, b);
+      fast.compute(s, m, p.rig, nullptr, 0, b);
       ASSERT_TRUE(sameLine(ref.mainLine(), fast.mainLine())) << "main line, second call";
       ASSERT_EQ(0, std::memcmp(a.offset_per_row.data(), b.offset_per_row.data(), a.offset_per_row.size() * sizeof(float)));
     }
@@ -303,8 +303,8 @@ TEST(FastGround, HoughOnRandomScoresMatchesTheReference) {
     gp.min_segment_rows = 1;
     GroundEstimator ref(gp), fast(gp);
     GroundProfile a, b;
-    ref.computeReference(score, rig, nullptr, 0, a);
-    fast.compute(score, rig, nullptr, 0, b);
+    ref.computeReference(score, cv::Mat(), rig, nullptr, 0, a);
+    fast.compute(score, cv::Mat(), rig, nullptr, 0, b);
     SCOPED_TRACE("trial " + std::to_string(trial));
     ASSERT_EQ(ref.mainLine().has_value(), fast.mainLine().has_value());
     if (ref.mainLine()) {
@@ -387,8 +387,8 @@ TEST(FastGround, HoughOnCraftedPeaksMatchesTheReference) {
     }
     GroundEstimator ref(gp), fast(gp);
     GroundProfile a, b;
-    ref.computeReference(score, rig, nullptr, 0, a);
-    fast.compute(score, rig, nullptr, 0, b);
+    ref.computeReference(score, cv::Mat(), rig, nullptr, 0, a);
+    fast.compute(score, cv::Mat(), rig, nullptr, 0, b);
     SCOPED_TRACE("trial " + std::to_string(trial) + ", " + std::to_string(rows) + " rows, " + std::to_string(offsets) +
                  " offsets");
     ASSERT_TRUE(sameLine(ref.mainHoughLine(), fast.mainHoughLine())) << "first Hough maximum";
@@ -398,7 +398,7 @@ TEST(FastGround, HoughOnCraftedPeaksMatchesTheReference) {
     lines += ref.mainHoughLine().has_value();
     second_lines += ref.secondHoughLine().has_value();
     // Again on the same estimator: the scratch of the previous image changes nothing.
-    fast.compute(score, rig, nullptr, 0, b);
+    fast.compute(score, cv::Mat(), rig, nullptr, 0, b);
     ASSERT_TRUE(sameLine(ref.mainHoughLine(), fast.mainHoughLine())) << "first Hough maximum, second call";
   }
   EXPECT_GT(lines, 350);
@@ -810,7 +810,7 @@ TEST(FastObstacles, TheLoopMatchesTheReferenceOnEveryPair) {
       corr.compute(lf, rf, score, matches);
       GroundEstimator ground;
       GroundProfile profile;
-      ground.compute(score, p.rig, nullptr, 0, profile);
+      ground.compute(score, matches, p.rig, nullptr, 0, profile);
       ground.estimateRoll(lf, rf, p.rig, profile);
       if (tilt != 0.0f) {
         profile.offset_per_column = tilt;

@@ -77,6 +77,28 @@ TEST(SegmenterAnalytic, BoxesFoundAtTheirOffsets) {
   EXPECT_LE(r.obstacles.size(), scene.box_rects.size() + 1);
 }
 
+// Farther poles hide only far ground rows, where the ground's texture is too fine to be
+// measured, so the test below cannot refute them. Against a plain sky above low hills their
+// rows score as high as the hills' rows, yet each matches a few pixels against the hills'
+// hundreds: the background weighs rows by their matched pixels. Over the rows above their feet
+// the poles are also a run of peaks at one offset, which a far ground segment of nearly no
+// slope would pass through; segments that flat are refused (far_min_slope_ratio).
+TEST(SegmenterAnalytic, FarPolesAgainstAPlainSkyAreNotTheBackground) {
+  for (const double z : {10.0, 14.0, 20.0, 30.0}) {
+    AnalyticSceneParams sp;
+    sp.background_height_m = 6.0;
+    sp.boxes = {AnalyticBox{-4.0, z, 0.3, 5.0}, AnalyticBox{3.0, z, 0.3, 5.0}};
+    const auto scene = renderAnalyticScene(sp);
+    FeatureExtractor fx;
+    Segmenter seg(paramsFor(64));
+    SegmentationResult r;
+    segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+    EXPECT_EQ(r.ground.source, GroundSource::kHough) << "poles at " << z << " m";
+    EXPECT_NEAR(r.ground.background_offset, scene.background_offset, 1.0) << "poles at " << z << " m";
+    EXPECT_GE(groundRowsWithin1(r.ground, scene.ground_offset_per_row, 64), 0.9) << "poles at " << z << " m";
+  }
+}
+
 // A near pole taller than the view is a vertical line in the correlation image from the top
 // row down to its foot. Against a plain sky it is the only thing the top rows show, so it
 // outweighs the far background (a band of hills). Taken for the background, it would hide
