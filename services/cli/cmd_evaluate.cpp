@@ -39,6 +39,7 @@ struct EvaluateOptions {
   double hog_upscale = 2.0;
   int gallery = 12;
   bool fit_score = false;
+  bool sequence = false;  // frames are consecutive: the detector keeps its state between them
 };
 
 // OpenCV's people detector over the whole left image (the baseline without
@@ -151,6 +152,8 @@ void runEvaluate(const EvaluateOptions& o) {
   while (n < limit && source->next(pair)) {
     std::vector<HumanDetection> humans;
     if (detector) {
+      // KITTI object frames are unrelated images: no ground line or track carries over.
+      if (!o.sequence) detector->reset();
       detector->compute(pair.left, pair.right, pair.rig, static_cast<double>(pair.index) * config.frame_period_s,
                         result);
       humans = result.humans;
@@ -277,6 +280,9 @@ void addEvaluateCommand(CLI::App& app) {
   cmd->add_option("--hog-upscale", opts->hog_upscale, "image scale for the HOG baseline (small people need > 1)")
       ->capture_default_str();
   cmd->add_option("--gallery", opts->gallery, "images in the report's gallery")->capture_default_str();
+  cmd->add_flag("--sequence", opts->sequence,
+                "the frames are consecutive (a drive): keep the previous frame's ground line and the tracks "
+                "(default: every frame stands alone, as in the KITTI object benchmark)");
   cmd->add_flag("--fit-score", opts->fit_score,
                 "fit the score weights (bias, w_symmetry, w_shape) on this source's labels; writes score_fit.json");
   cmd->callback([opts] { runEvaluate(*opts); });

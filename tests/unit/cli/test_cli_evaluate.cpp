@@ -258,7 +258,8 @@ TEST_F(EvaluateOnExportedScenes, RunningTheDetectorItselfGivesTheSameFiguresAndT
                        from_file}),
             0)
       << log();
-  ASSERT_EQ(run(dir_, {"evaluate", "--source", "kitti:" + scenes_, "--out", itself}), 0) << log();
+  // `detect` carries the ground line and the tracks from frame to frame, as a drive does.
+  ASSERT_EQ(run(dir_, {"evaluate", "--source", "kitti:" + scenes_, "--sequence", "--out", itself}), 0) << log();
   const auto a = readJson(fs::path(from_file) / "metrics.json");
   const auto b = readJson(fs::path(itself) / "metrics.json");
   for (const char* key : {"ground_truth", "detections", "true_positives", "false_positives"})
@@ -269,6 +270,41 @@ TEST_F(EvaluateOnExportedScenes, RunningTheDetectorItselfGivesTheSameFiguresAndT
   EXPECT_EQ(hog.at("frames").get<int>(), kFrames);
   EXPECT_EQ(hog.at("ground_truth"), method(b, "stereoguard").at("ground_truth"));
   EXPECT_TRUE(fs::exists(fs::path(itself) / "report.html"));
+}
+
+// KITTI object frames are unrelated images: by default each is evaluated on its own (no ground
+// line or track carries over), so the figures over all frames are the sums of the figures of
+// each frame evaluated alone. (With --sequence they are not: on seeds 1020-1023 the tracks and
+// lines carried over change 10 detections into 7.)
+TEST_F(EvaluateOnExportedScenes, EveryFrameStandsAlone) {
+  std::vector<std::string> ids;
+  for (const auto& e : fs::directory_iterator(fs::path(scenes_) / "image_2")) ids.push_back(e.path().stem().string());
+  std::sort(ids.begin(), ids.end());
+  ASSERT_EQ(ids.size(), static_cast<std::size_t>(kFrames));
+  const std::string all_out = (dir_ / "all").string();
+  ASSERT_EQ(run(dir_, {"evaluate", "--source", "kitti:" + scenes_, "--no-hog", "--out", all_out}), 0) << log();
+  const auto all = method(readJson(fs::path(all_out) / "metrics.json"), "stereoguard");
+  int detections = 0, tp = 0, fp = 0;
+  for (const std::string& id : ids) {
+    const fs::path one = dir_ / ("frame_" + id);
+    for (const char* sub : {"image_2", "image_3", "calib", "label_2"}) {
+      fs::create_directories(one / sub);
+      const std::string file = id + (std::string(sub).rfind("image", 0) == 0 ? ".png" : ".txt");
+      fs::copy_file(fs::path(scenes_) / sub / file, one / sub / file);
+    }
+    fs::copy_file(fs::path(scenes_) / "camera_height_m", one / "camera_height_m");
+    const std::string out = (one / "eval").string();
+    ASSERT_EQ(run(dir_, {"evaluate", "--source", "kitti:" + one.string(), "--no-hog", "--gallery", "0", "--out", out}),
+              0)
+        << log();
+    const auto m = method(readJson(fs::path(out) / "metrics.json"), "stereoguard");
+    detections += m.at("detections").get<int>();
+    tp += m.at("true_positives").get<int>();
+    fp += m.at("false_positives").get<int>();
+  }
+  EXPECT_EQ(all.at("detections").get<int>(), detections);
+  EXPECT_EQ(all.at("true_positives").get<int>(), tp);
+  EXPECT_EQ(all.at("false_positives").get<int>(), fp);
 }
 
 }  // namespace

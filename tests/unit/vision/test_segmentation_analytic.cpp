@@ -20,6 +20,15 @@ SegmenterParams paramsFor(int offsets) {
   return p;
 }
 
+// One analytic pair through the features and the segmentation at 64 offsets.
+SegmentationResult segmentScene(const test::AnalyticScene& scene) {
+  FeatureExtractor fx;
+  Segmenter seg(paramsFor(64));
+  SegmentationResult r;
+  segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+  return r;
+}
+
 // Fraction of the truly visible ground rows whose offset is within +-1 of the truth.
 double groundRowsWithin1(const GroundProfile& g, const std::vector<float>& truth, int offsets) {
   int n = 0, ok = 0;
@@ -34,10 +43,7 @@ double groundRowsWithin1(const GroundProfile& g, const std::vector<float>& truth
 TEST(SegmenterAnalytic, FlatGroundLineAndBackground) {
   AnalyticSceneParams sp;
   const auto scene = renderAnalyticScene(sp);
-  FeatureExtractor fx;
-  Segmenter seg(paramsFor(64));
-  SegmentationResult r;
-  segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+  const SegmentationResult r = segmentScene(scene);
   EXPECT_EQ(r.ground.source, GroundSource::kHough);
   EXPECT_GE(groundRowsWithin1(r.ground, scene.ground_offset_per_row, 64), 0.9);
   EXPECT_NEAR(r.ground.background_offset, scene.background_offset, 1.0);
@@ -51,10 +57,7 @@ TEST(SegmenterAnalytic, SlopeChangeIsFollowed) {
   sp.slope = 0.12;
   sp.slope_start_m = 12.0;
   const auto scene = renderAnalyticScene(sp);
-  FeatureExtractor fx;
-  Segmenter seg(paramsFor(64));
-  SegmentationResult r;
-  segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+  const SegmentationResult r = segmentScene(scene);
   EXPECT_EQ(r.ground.source, GroundSource::kHough);
   EXPECT_GE(groundRowsWithin1(r.ground, scene.ground_offset_per_row, 64), 0.9);
 }
@@ -63,10 +66,7 @@ TEST(SegmenterAnalytic, BoxesFoundAtTheirOffsets) {
   AnalyticSceneParams sp;
   sp.boxes = {AnalyticBox{-1.5, 8.0, 0.8, 1.8}, AnalyticBox{2.0, 14.0, 1.2, 1.5}};
   const auto scene = renderAnalyticScene(sp);
-  FeatureExtractor fx;
-  Segmenter seg(paramsFor(64));
-  SegmentationResult r;
-  segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+  const SegmentationResult r = segmentScene(scene);
   for (std::size_t k = 0; k < scene.box_rects.size(); ++k) {
     const ObstacleCluster* found = nullptr;
     for (const ObstacleCluster& o : r.obstacles)
@@ -89,10 +89,7 @@ TEST(SegmenterAnalytic, FarPolesAgainstAPlainSkyAreNotTheBackground) {
     sp.background_height_m = 6.0;
     sp.boxes = {AnalyticBox{-4.0, z, 0.3, 5.0}, AnalyticBox{3.0, z, 0.3, 5.0}};
     const auto scene = renderAnalyticScene(sp);
-    FeatureExtractor fx;
-    Segmenter seg(paramsFor(64));
-    SegmentationResult r;
-    segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+    const SegmentationResult r = segmentScene(scene);
     EXPECT_EQ(r.ground.source, GroundSource::kHough) << "poles at " << z << " m";
     EXPECT_NEAR(r.ground.background_offset, scene.background_offset, 1.0) << "poles at " << z << " m";
     EXPECT_GE(groundRowsWithin1(r.ground, scene.ground_offset_per_row, 64), 0.9) << "poles at " << z << " m";
@@ -110,10 +107,7 @@ TEST(SegmenterAnalytic, NearPoleIsNotTheBackground) {
     sp.background_height_m = 8.0;
     sp.boxes = {AnalyticBox{0.4, z, 0.3, 12.0}};
     const auto scene = renderAnalyticScene(sp);
-    FeatureExtractor fx;
-    Segmenter seg(paramsFor(64));
-    SegmentationResult r;
-    segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+    const SegmentationResult r = segmentScene(scene);
     EXPECT_EQ(r.ground.source, GroundSource::kHough) << "pole at " << z << " m";
     EXPECT_NEAR(r.ground.background_offset, scene.background_offset, 1.0) << "pole at " << z << " m";
     EXPECT_GE(groundRowsWithin1(r.ground, scene.ground_offset_per_row, 64), 0.9) << "pole at " << z << " m";
@@ -354,10 +348,7 @@ TEST(SegmenterAnalytic, PlainGroundBetweenTwoObjectsIsNoFace) {
   sp.ground_contrast = 4;
   sp.boxes = {AnalyticBox{-1.5, 10.0, 0.7, 1.7}, AnalyticBox{1.5, 10.0, 0.7, 1.7}};
   const auto scene = renderAnalyticScene(sp);
-  FeatureExtractor fx;
-  Segmenter seg(paramsFor(64));
-  SegmentationResult r;
-  segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+  const SegmentationResult r = segmentScene(scene);
   for (const cv::Rect& truth : scene.box_rects) {
     bool found = false;
     for (const ObstacleCluster& o : r.obstacles) found |= test::iou(o.box, truth) >= 0.5;
@@ -371,10 +362,7 @@ TEST(SegmenterAnalytic, WeakGroundTextureFallsBackToThePrior) {
   AnalyticSceneParams sp;
   sp.ground_contrast = 6;  // below the edge threshold: no ground features
   const auto scene = renderAnalyticScene(sp);
-  FeatureExtractor fx;
-  Segmenter seg(paramsFor(64));
-  SegmentationResult r;
-  segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+  const SegmentationResult r = segmentScene(scene);
   EXPECT_EQ(r.ground.source, GroundSource::kPrior);
   // The prior of a level rig at the true height is the truth.
   EXPECT_GE(groundRowsWithin1(r.ground, scene.ground_offset_per_row, 64), 0.9);
@@ -400,10 +388,7 @@ TEST(SegmenterAnalytic, NoGroundAndNoMountingSaysNone) {
   sp.ground_contrast = 6;
   auto scene = renderAnalyticScene(sp);
   scene.rig.mounting.reset();
-  FeatureExtractor fx;
-  Segmenter seg(paramsFor(64));
-  SegmentationResult r;
-  segmentPair(fx, seg, scene.left, scene.right, scene.rig, r);
+  const SegmentationResult r = segmentScene(scene);
   EXPECT_EQ(r.ground.source, GroundSource::kNone);
 }
 
