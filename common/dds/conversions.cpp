@@ -131,6 +131,7 @@ void fillHeader(const FrameInfo& info, sg_idl_FrameHeader& out) {
   out.sample_seq = info.sample_seq;
   out.end_of_stream = info.end_of_stream;
   out.payload_valid = info.payload_valid;
+  out.scene_start = info.scene_start;
 }
 
 FrameInfo readHeader(const sg_idl_FrameHeader& in) {
@@ -141,6 +142,7 @@ FrameInfo readHeader(const sg_idl_FrameHeader& in) {
   info.sample_seq = in.sample_seq;
   info.end_of_stream = in.end_of_stream;
   info.payload_valid = in.payload_valid;
+  info.scene_start = in.scene_start;
   return info;
 }
 

@@ -31,6 +31,7 @@ struct FrameInfo {
   std::uint64_t sample_seq = 0;        // per writer and topic (set by the publishing stage)
   bool end_of_stream = false;          // no frame follows this one
   bool payload_valid = true;           // false: an end-of-stream marker without a frame
+  bool scene_start = false;            // unrelated to the frame before: stages drop their state
 };
 
 // CLOCK_REALTIME now, nanoseconds (comparable across processes on one host).

@@ -39,6 +39,7 @@ bool KittiSource::next(StereoPair& pair) {
   pair = StereoPair{};
   pair.id = id;
   pair.index = static_cast<std::int64_t>(index);
+  pair.scene_start = true;  // KITTI object frames are unrelated images
   const std::string calib = calib_path_.empty() ? (root / "calib" / (id + ".txt")).string() : calib_path_;
   loader_.load((root / "image_2" / name).string(), (root / "image_3" / name).string(), calib, pair);
   if (has_labels_) pair.labels = readKittiLabels((root / "label_2" / (id + ".txt")).string());

@@ -88,6 +88,7 @@ bool PairsSource::next(StereoPair& pair) {
   pair = StereoPair{};
   pair.id = fs::path(name).stem().string();
   pair.index = static_cast<std::int64_t>(index);
+  pair.scene_start = index == 0;  // a folder of pairs is a recorded sequence
   loader_.load(left, right, calibrationFor(name), pair);
   return true;
 }

@@ -41,6 +41,9 @@ struct SceneTruth {
 struct StereoPair {
   std::string id;           // frame name, e.g. "000042" or the file stem
   std::int64_t index = 0;   // position in the source, from 0
+  // The frame does not continue the one before it (unrelated scenes: synthetic, KITTI object
+  // frames; the first frame of a sequence): no ground line or track may carry over.
+  bool scene_start = true;
   cv::Mat left;             // CV_8UC1, rectified
   cv::Mat right;            // CV_8UC1, rectified, same size as left
   StereoRig rig;

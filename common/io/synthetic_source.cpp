@@ -47,6 +47,7 @@ bool SyntheticSource::next(StereoPair& pair) {
   }
   pair = renderSyntheticScene(params, seed);
   pair.index = index;
+  pair.scene_start = true;  // every seed is a scene of its own
   return true;
 }
 

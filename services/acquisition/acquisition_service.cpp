@@ -63,6 +63,7 @@ void AcquisitionService::publish(const StereoPair& pair, bool last) {
   data_.info.sample_seq = next_seq_++;
   data_.info.end_of_stream = last;
   data_.info.payload_valid = true;
+  data_.info.scene_start = pair.scene_start;
   data_.rig = pair.rig;
   data_.rig.width = pair.left.cols;
   data_.rig.height = pair.left.rows;

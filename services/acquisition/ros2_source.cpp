@@ -195,6 +195,7 @@ bool Ros2StereoSource::next(StereoPair& pair) {
         }
         pair = StereoPair{};
         pair.id = stampName(next->left.stamp_ns);
+        pair.scene_start = index_ == 0;  // camera topics are one sequence
         pair.index = index_++;
         pair.left = std::move(next->left.mono);
         pair.right = std::move(next->right.mono);

@@ -24,6 +24,7 @@ struct DetectOptions {
   std::string config;
   std::string out;
   long long frames = 0;
+  bool sequence = false;  // frames are consecutive whatever the source says
 };
 
 void runDetect(const DetectOptions& o) {
@@ -48,6 +49,9 @@ void runDetect(const DetectOptions& o) {
       ++bad;
       continue;
     }
+    // A frame of another scene (synthetic seeds, KITTI object frames) takes no ground line or
+    // track from the one before.
+    if (pair.scene_start && !o.sequence) detector.reset();
     detector.compute(pair.left, pair.right, pair.rig, static_cast<double>(pair.index) * config.frame_period_s, result);
     out << toJsonLine(makeFrameRecord(pair.id, pair.left.cols, pair.left.rows, result.segmentation, result.humans,
                                       result.timing_ms))
@@ -77,6 +81,9 @@ void addDetectCommand(CLI::App& app) {
                   "(e.g. config/localization.yaml)");
   cmd->add_option("--frames", opts->frames, "stop after N frames (endless sources: default 10)");
   cmd->add_option("--out", opts->out, "output .jsonl file")->required();
+  cmd->add_flag("--sequence", opts->sequence,
+                "the frames are consecutive (a drive in KITTI layout): keep the previous frame's ground line and the "
+                "tracks (default: only across frames the source calls one sequence, as pairs:DIR and ros2:)");
   cmd->callback([opts] { runDetect(*opts); });
 }
 

@@ -39,7 +39,7 @@ struct EvaluateOptions {
   double hog_upscale = 2.0;
   int gallery = 12;
   bool fit_score = false;
-  bool sequence = false;  // frames are consecutive: the detector keeps its state between them
+  bool sequence = false;  // frames are consecutive whatever the source says: the detector keeps its state
 };
 
 // OpenCV's people detector over the whole left image (the baseline without
@@ -153,7 +153,7 @@ void runEvaluate(const EvaluateOptions& o) {
     std::vector<HumanDetection> humans;
     if (detector) {
       // KITTI object frames are unrelated images: no ground line or track carries over.
-      if (!o.sequence) detector->reset();
+      if (pair.scene_start && !o.sequence) detector->reset();
       detector->compute(pair.left, pair.right, pair.rig, static_cast<double>(pair.index) * config.frame_period_s,
                         result);
       humans = result.humans;
@@ -281,8 +281,8 @@ void addEvaluateCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--gallery", opts->gallery, "images in the report's gallery")->capture_default_str();
   cmd->add_flag("--sequence", opts->sequence,
-                "the frames are consecutive (a drive): keep the previous frame's ground line and the tracks "
-                "(default: every frame stands alone, as in the KITTI object benchmark)");
+                "the frames are consecutive (a drive in KITTI layout): keep the previous frame's ground line and "
+                "the tracks (default: every frame stands alone, as in the KITTI object benchmark)");
   cmd->add_flag("--fit-score", opts->fit_score,
                 "fit the score weights (bias, w_symmetry, w_shape) on this source's labels; writes score_fit.json");
   cmd->callback([opts] { runEvaluate(*opts); });

@@ -39,6 +39,7 @@ nlohmann::json toJson(const RecordedFrame& frame) {
       {"source", frame.info.source},
       {"sample_seq", frame.info.sample_seq},
       {"end_of_stream", frame.info.end_of_stream},
+      {"scene_start", frame.info.scene_start},
       {"width", frame.width},
       {"height", frame.height},
       {"rig",
@@ -62,6 +63,8 @@ RecordedFrame recordedFrameFromJson(const nlohmann::json& json, const std::strin
   f.info.source = need<std::string>(json, "source", where);
   f.info.sample_seq = need<std::uint64_t>(json, "sample_seq", where);
   f.info.end_of_stream = need<bool>(json, "end_of_stream", where);
+  // Recordings made before the field: one sequence.
+  f.info.scene_start = json.contains("scene_start") && need<bool>(json, "scene_start", where);
   f.width = need<int>(json, "width", where);
   f.height = need<int>(json, "height", where);
   const auto rig = need<nlohmann::json>(json, "rig", where);

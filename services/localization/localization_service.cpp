@@ -184,6 +184,7 @@ void LocalizationService::localize(Pending& pending, const dds::StereoFrameData&
     localizer_.compute(frame.left, frame.right, seg.rig, seg.result, output_.detections);
     const auto t_track = std::chrono::steady_clock::now();
     if (params_.tracking) {
+      if (seg.info.scene_start) tracker_.reset();  // no track continues into another scene
       tracker_.update(static_cast<double>(seg.info.frame_id) * params_.frame_period_s, output_.detections);
     }
     const auto end = std::chrono::steady_clock::now();

@@ -12,6 +12,7 @@ SegmentationService::SegmentationService(dds::ShutdownSignal& signals, const Seg
 void SegmentationService::compute(const sg_idl_FeatureFrame& in, const dds::FrameInfo& info,
                                   sg_idl_Segmentation& out) {
   dds::readFeatureFrame(in, input_);
+  if (info.scene_start) segmenter_.reset();  // no ground line of another scene as the fallback
   segmenter_.compute(input_.left_features, input_.right_features, input_.rig, output_.result);
   output_.info = info;
   output_.rig = input_.rig;

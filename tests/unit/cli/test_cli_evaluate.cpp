@@ -258,8 +258,7 @@ TEST_F(EvaluateOnExportedScenes, RunningTheDetectorItselfGivesTheSameFiguresAndT
                        from_file}),
             0)
       << log();
-  // `detect` carries the ground line and the tracks from frame to frame, as a drive does.
-  ASSERT_EQ(run(dir_, {"evaluate", "--source", "kitti:" + scenes_, "--sequence", "--out", itself}), 0) << log();
+  ASSERT_EQ(run(dir_, {"evaluate", "--source", "kitti:" + scenes_, "--out", itself}), 0) << log();
   const auto a = readJson(fs::path(from_file) / "metrics.json");
   const auto b = readJson(fs::path(itself) / "metrics.json");
   for (const char* key : {"ground_truth", "detections", "true_positives", "false_positives"})
@@ -305,6 +304,40 @@ TEST_F(EvaluateOnExportedScenes, EveryFrameStandsAlone) {
   EXPECT_EQ(all.at("detections").get<int>(), detections);
   EXPECT_EQ(all.at("true_positives").get<int>(), tp);
   EXPECT_EQ(all.at("false_positives").get<int>(), fp);
+}
+
+// Each seed of the synthetic source is a scene of its own. The first weak-texture scene after
+// a textured one among the test seeds takes the mounting prior, as when it is detected alone,
+// not the line of the unrelated scene before it (which --sequence keeps, as for a drive).
+TEST(DetectOverScenes, ANewSceneTakesNoGroundLineFromTheOneBefore) {
+  std::uint64_t weak = kFirstSeed + 1;
+  while (!(randomSceneParams(weak).weak_ground_texture && !randomSceneParams(weak - 1).weak_ground_texture)) ++weak;
+  ASSERT_LT(weak, kFirstSeed + 100);
+  const fs::path dir = test::scratchDirForThisTest("sg_cli_detect_scenes");
+  auto detect = [&](std::uint64_t first, int frames, bool sequence, const std::string& name) {
+    std::vector<std::string> args = {"detect", "--source", "synthetic:" + std::to_string(first), "--frames",
+                                     std::to_string(frames), "--out", (dir / name).string()};
+    if (sequence) args.push_back("--sequence");
+    EXPECT_EQ(run(dir, args), 0);
+    std::vector<nlohmann::json> records;
+    std::ifstream in(dir / name);
+    for (std::string line; std::getline(in, line);)
+      if (!line.empty()) records.push_back(nlohmann::json::parse(line));
+    return records;
+  };
+  const auto after = detect(weak - 1, 2, false, "after.jsonl");
+  const auto alone = detect(weak, 1, false, "alone.jsonl");
+  const auto carried = detect(weak - 1, 2, true, "carried.jsonl");
+  ASSERT_EQ(after.size(), 2u);
+  ASSERT_EQ(alone.size(), 1u);
+  ASSERT_EQ(carried.size(), 2u);
+  SCOPED_TRACE("seed " + std::to_string(weak));
+  EXPECT_EQ(after[1].at("ground").at("source"), "prior");
+  EXPECT_EQ(after[1].at("ground"), alone[0].at("ground"));
+  EXPECT_EQ(after[1].at("obstacles"), alone[0].at("obstacles"));
+  EXPECT_EQ(after[1].at("humans").size(), alone[0].at("humans").size());
+  EXPECT_EQ(carried[1].at("ground").at("source"), "previous");
+  if (!HasFailure()) fs::remove_all(dir);
 }
 
 }  // namespace

@@ -49,6 +49,7 @@ StereoFrameData stereoFrame(int width, int height) {
   d.info.capture_time_ns = 123456789;
   d.info.source = "000042";
   d.info.sample_seq = 7;
+  d.info.scene_start = true;
   d.rig = testRig(width, height);
   d.left = noiseImage(width, height, 1);
   d.right = noiseImage(width, height, 2);
@@ -72,6 +73,7 @@ TEST(StereoFrameConversion, RoundTripIsExactOnAnAwkwardSize) {
   EXPECT_EQ(out.info.frame_id, 42u);
   EXPECT_EQ(out.info.source, "000042");
   EXPECT_EQ(out.info.sample_seq, 7u);
+  EXPECT_TRUE(out.info.scene_start);
   EXPECT_EQ(out.rig.width, 311);
   ASSERT_TRUE(out.rig.mounting.has_value());
   EXPECT_DOUBLE_EQ(out.rig.mounting->pitch_rad, 0.02);
