@@ -507,7 +507,8 @@ GroundLine GroundEstimator::refit(const GroundLine& line, int row_begin, int row
   return out;
 }
 
-std::optional<GroundLine> GroundEstimator::farSegment(const cv::Mat& score, const GroundLine& line) {
+std::optional<GroundLine> GroundEstimator::farSegment(const cv::Mat& score, const cv::Mat& matches,
+                                                      const GroundLine& line) {
   const int rows = score.rows;
   const int h1 = std::clamp(static_cast<int>(std::ceil(line.horizon_row)), 0, rows);
   const int need = params_.min_segment_rows;
@@ -516,7 +517,7 @@ std::optional<GroundLine> GroundEstimator::farSegment(const cv::Mat& score, cons
   line_rows_.resize(static_cast<std::size_t>(rows));
   for (int y = 0; y < rows; ++y) line_rows_[static_cast<std::size_t>(y)] = static_cast<float>(line.offsetAt(y));
   const double tol = params_.support_tolerance_px;
-  const double ground_above = static_cast<double>(backgroundOffset(score, h1, line_rows_)) + tol;
+  const double ground_above = static_cast<double>(backgroundOffset(score, matches, h1, line_rows_)) + tol;
   // Rows supporting the line where the segment would be ground (the line is the background
   // where it is farther), as prefix sums. The rows that can support the segment and not the
   // line (a peak farther than the background, none on the line) vote; a bound on what a
@@ -652,7 +653,8 @@ std::optional<GroundLine> GroundEstimator::farSegment(const cv::Mat& score, cons
   return far;
 }
 
-float GroundEstimator::backgroundOffset(const cv::Mat& score, int rows_above, const std::vector<float>& ground_per_row) {
+float GroundEstimator::backgroundOffset(const cv::Mat& score, const cv::Mat& matches, int rows_above,
+                                        const std::vector<float>& ground_per_row) {
   const int rows = std::clamp(rows_above, 0, score.rows);
   if (rows == 0) return 0.0f;
   std::vector<float>& sums = background_sums_;
@@ -662,8 +664,8 @@ float GroundEstimator::backgroundOffset(const cv::Mat& score, int rows_above, co
   // pole against a plain sky scores as high as a row of textured hills, but says less.
   for (int y = 0; y < rows; ++y) {
     const float* s = score.ptr<float>(y);
-    if (matches_ != nullptr) {
-      const int* m = matches_->ptr<int>(y);
+    if (!matches.empty()) {
+      const int* m = matches.ptr<int>(y);
       for (int d = 0; d < score.cols; ++d)
         sums[static_cast<std::size_t>(d)] += std::min(s[d], static_cast<float>(m[d]) * per_match_);
     } else {
@@ -1159,7 +1161,6 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const cv::Mat& matches, 
   if (!matches.empty() && (matches.type() != CV_32S || matches.size() != score.size()))
     throw InputError("ground: the correlation's counts must be CV_32S of the score's size");
   // The background's rows: matches over at least background_row_share of the width's pixels.
-  matches_ = matches.empty() ? nullptr : &matches;
   const double width = rig.width > 0 ? rig.width : score.cols;
   per_match_ = static_cast<float>(1.0 / std::max(1.0, params_.background_row_share * width));
   const int rows = score.rows;
@@ -1235,7 +1236,7 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const cv::Mat& matches, 
       // meeting the line where it explains more rows than the line's extension replaces it.
       if ((!second_line_ || second_far) && params_.far_segment_search && !needs_corroboration_) {
         // farSegment returns only a segment whose junction lies inside the ground rows.
-        if (std::optional<GroundLine> far = farSegment(score, *l1)) {
+        if (std::optional<GroundLine> far = farSegment(score, matches, *l1)) {
           second_line_ = far;
           second_far = true;
           junction = l1->junctionRow(*far);
@@ -1279,7 +1280,7 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const cv::Mat& matches, 
   // Background: the offset dominating the rows where the ground would be farther than 1 px.
   int rows_above = 0;
   while (rows_above < rows && out.offset_per_row[static_cast<std::size_t>(rows_above)] < 1.0f) ++rows_above;
-  const float background = backgroundOffset(score, rows_above, out.offset_per_row);
+  const float background = backgroundOffset(score, matches, rows_above, out.offset_per_row);
   int horizon = 0;
   while (horizon < rows && out.offset_per_row[static_cast<std::size_t>(horizon)] < background) ++horizon;
   for (int y = 0; y < horizon; ++y) out.offset_per_row[static_cast<std::size_t>(y)] = background;

@@ -227,14 +227,17 @@ class GroundEstimator {
   // rows next to the junction where the two lie within the tolerance of each other. The line
   // must stay supported below the junction on min_segment_rows rows. Kept when it explains at
   // least min_segment_rows more rows than the line, also once refitted to its peaks.
-  std::optional<GroundLine> farSegment(const cv::Mat& score, const GroundLine& line);
+  std::optional<GroundLine> farSegment(const cv::Mat& score, const cv::Mat& matches, const GroundLine& line);
   // Row y has a peak within support_tolerance_px of offset d.
   bool peakNear(int y, double d) const;
   int support(const GroundLine& line, int row_begin, int row_end, int offsets, int* crossed) const;
   GroundLine refit(const GroundLine& line, int row_begin, int row_end) const;
   // The offset dominating the score of the first `rows_above` rows whose background would not
-  // hide measured ground: a background at offset b hides every ground row nearer than b.
-  float backgroundOffset(const cv::Mat& score, int rows_above, const std::vector<float>& ground_per_row);
+  // hide measured ground: a background at offset b hides every ground row nearer than b. With
+  // `matches` (the score's counts), a row's score is taken over at least per_match_'s share of
+  // the width; empty, every row's score counts in full.
+  float backgroundOffset(const cv::Mat& score, const cv::Mat& matches, int rows_above,
+                         const std::vector<float>& ground_per_row);
   // The background's offset to a fraction of a pixel, from the column sums of the last
   // backgroundOffset() around its (whole) offset.
   double refinedBackground(float background) const;
@@ -313,7 +316,6 @@ class GroundEstimator {
   std::optional<GroundLine> main_hough_;
   std::optional<GroundLine> second_hough_;
   bool prior_moved_ = false;  // the last compute's prior was moved to the background's edge
-  const cv::Mat* matches_ = nullptr;  // the counts of the current compute (null: every row's score counts in full)
   float per_match_ = 1.0f;            // 1 / (background_row_share x width): the most one match adds to a row's score
 };
 

@@ -81,9 +81,7 @@ void addDetectCommand(CLI::App& app) {
                   "(e.g. config/localization.yaml)");
   cmd->add_option("--frames", opts->frames, "stop after N frames (endless sources: default 10)");
   cmd->add_option("--out", opts->out, "output .jsonl file")->required();
-  cmd->add_flag("--sequence", opts->sequence,
-                "the frames are consecutive (a drive in KITTI layout): keep the previous frame's ground line and the "
-                "tracks (default: only across frames the source calls one sequence, as pairs:DIR and ros2:)");
+  addSequenceFlag(*cmd, opts->sequence);
   cmd->callback([opts] { runDetect(*opts); });
 }
 

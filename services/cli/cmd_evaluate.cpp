@@ -280,9 +280,7 @@ void addEvaluateCommand(CLI::App& app) {
   cmd->add_option("--hog-upscale", opts->hog_upscale, "image scale for the HOG baseline (small people need > 1)")
       ->capture_default_str();
   cmd->add_option("--gallery", opts->gallery, "images in the report's gallery")->capture_default_str();
-  cmd->add_flag("--sequence", opts->sequence,
-                "the frames are consecutive (a drive in KITTI layout): keep the previous frame's ground line and "
-                "the tracks (default: every frame stands alone, as in the KITTI object benchmark)");
+  addSequenceFlag(*cmd, opts->sequence);
   cmd->add_flag("--fit-score", opts->fit_score,
                 "fit the score weights (bias, w_symmetry, w_shape) on this source's labels; writes score_fit.json");
   cmd->callback([opts] { runEvaluate(*opts); });
