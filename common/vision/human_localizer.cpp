@@ -712,6 +712,24 @@ void flattenClutter(cv::Mat& patch, const cv::Mat& labels, cv::Point at, int k, 
   }
 }
 
+bool HumanLocalizer::insideStructure(const StereoRig& rig, const SegmentationResult& segmentation,
+                                     const HumanDetection& h) const {
+  const FilterParams& fp = params_.filters;
+  if (!(fp.interior_min_width_m > 0.0)) return false;
+  for (const ObstacleCluster& c : segmentation.obstacles) {
+    if (c.label != h.cluster_label) continue;
+    if (c.offset_px <= 0) return false;
+    const double width_m = static_cast<double>(c.box.width) * rig.baseline_m / static_cast<double>(c.offset_px);
+    if (width_m <= fp.interior_min_width_m) return false;
+    const double margin = fp.interior_margin_widths * static_cast<double>(h.box.width);
+    const double left_side = static_cast<double>(h.box.x) - static_cast<double>(c.box.x);
+    const double right_side =
+        static_cast<double>(c.box.x + c.box.width) - static_cast<double>(h.box.x) - static_cast<double>(h.box.width);
+    return left_side >= margin && right_side >= margin;
+  }
+  return false;
+}
+
 bool HumanLocalizer::validateCandidate(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& right,
                                        const StereoRig& rig, const SegmentationResult& segmentation, HumanDetection& h,
                                        bool reference) const {
@@ -789,6 +807,8 @@ bool HumanLocalizer::validateCandidate(BoxWorkspace& ws, const cv::Mat& left, co
   h.shape_score = params_.shape.enabled ? shapeScore(ws, left, labelled ? segmentation.labels : no_labels, h.box) : 0.0f;
   h.score = static_cast<float>(combinedScore(static_cast<double>(h.symmetry), static_cast<double>(h.shape_score)));
   if (static_cast<double>(h.score) < params_.score.min_score) return false;
+  if (static_cast<double>(h.score) < params_.filters.interior_min_score && insideStructure(rig, segmentation, h))
+    return false;
   const cv::Rect image(0, 0, left.cols, left.rows);
   return (h.box & cv::Rect2f(image)).area() > 0.0f;
 }

@@ -98,6 +98,13 @@ struct FilterParams {
   double min_grey_stddev = 5.0;           // grey levels; below = uniform texture
   double max_foreign_share = 0.45;        // share of the box's obstacle pixels labelled with other clusters
   double same_object_depth_m = 0.3;       // clusters this close in distance to the box's own are not "other"
+  // A box in the middle of a cluster much wider than a person (a car's side, a wall: a figure
+  // there is the structure's texture or a person within the offset tolerance of it) needs a
+  // score of interior_min_score. In the middle: the cluster is wider than interior_min_width_m
+  // and reaches interior_margin_widths box widths beyond the box on both sides.
+  double interior_min_width_m = 1.5;
+  double interior_margin_widths = 1.0;
+  double interior_min_score = 0.7;
   double nms_iou = 0.35;                  // duplicates: intersection over union above this
   double nms_containment = 0.7;           // duplicates: share of the smaller box inside the larger one
 
@@ -109,6 +116,11 @@ struct FilterParams {
             "share of obstacle pixels of other clusters above which a box straddles two clusters");
     v.field("same_object_depth_m", same_object_depth_m, 0.0, 100.0, "metres",
             "clusters within this distance of the box's own cluster count as the same object (a rider and the bicycle)");
+    v.field("interior_min_width_m", interior_min_width_m, 0.0, 100.0, "metres",
+            "a box in the middle of a cluster wider than this (a structure; 0: no such test) ...");
+    v.field("interior_margin_widths", interior_margin_widths, 0.0, 100.0, "box widths",
+            "... which reaches this many box widths beyond it on both sides ...");
+    v.field("interior_min_score", interior_min_score, 0.0, 1.0, "", "... is kept only when it scores at least this");
     v.field("nms_iou", nms_iou, 0.0, 1.0, "", "non-maximum suppression overlap (IoU)");
     v.field("nms_containment", nms_containment, 0.0, 1.0, "", "non-maximum suppression containment");
   }
@@ -188,7 +200,7 @@ struct ScoreParams {
   double bias = 1.074;
   double w_symmetry = 0.655;
   double w_shape = 2.081;
-  double min_score = 0.430;  // detections below are dropped
+  double min_score = 0.400;  // detections below are dropped
 
   template <class V>
   void visit(V& v) {
@@ -297,6 +309,8 @@ class HumanLocalizer {
   float shapeScoreAt(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& labels, const cv::Rect2f& box,
                      double frac) const;
   float shapeScore(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& labels, const cv::Rect2f& box) const;
+  // True when box h lies in the middle of a cluster much wider than a person (filters.interior_*).
+  bool insideStructure(const StereoRig& rig, const SegmentationResult& segmentation, const HumanDetection& h) const;
   // Steps 3-5 on candidate h (refined offset, ground contact, distance, shape
   // score); false when it is dropped.
   bool validateCandidate(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,

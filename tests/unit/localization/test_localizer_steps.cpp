@@ -246,6 +246,40 @@ TEST(Localizer, ClustersAtTheSameDistanceAreOneObject) {
   EXPECT_GT(bestIoU(21, 0.6), 0.5);  // within 0.6 m
 }
 
+// A figure in the middle of a cluster much wider than a person (a car's side, a wall at the
+// same distance) needs filters.interior_min_score; at the cluster's end it does not.
+TEST(Localizer, BoxInTheMiddleOfAWideStructureNeedsAHighScore) {
+  const auto scene = test::renderFigureScene({test::Figure{320.0, 20.0, 1.7, true, 5}});
+  const cv::Rect truth = scene.figure_boxes[0];
+  const int w = truth.width;
+  const cv::Rect middle(truth.x - 3 * w, truth.y, 7 * w, truth.height);  // three widths on both sides
+  const cv::Rect end(truth.x, truth.y, 7 * w, truth.height);             // the figure at its left end
+  ASSERT_GE(middle.x, 0);
+  ASSERT_LE(end.br().x, scene.left.cols);
+  ASSERT_GT(scene.rig.baseline_m * middle.width / 20.0, 2.0 * LocalizerParams{}.filters.interior_min_width_m);
+  auto detect = [&](const cv::Rect& cluster_box, double interior_min_score) {
+    SegmentationResult s = scene.segmentation;
+    s.obstacles[0].box = cluster_box;
+    LocalizerParams p = stepParams();
+    p.filters.interior_min_score = interior_min_score;
+    return bestMatch(p, scene, s, truth);
+  };
+  const HumanDetection found = detect(middle, 0.0);
+  ASSERT_GT(boxIoU(found.box, cv::Rect2f(truth)), 0.5);
+  ASSERT_LT(found.score, 1.0f);
+  const double above = 0.5 * (static_cast<double>(found.score) + 1.0);  // more than the figure scores
+  EXPECT_LT(boxIoU(detect(middle, above).box, cv::Rect2f(truth)), 0.5);
+  EXPECT_GT(boxIoU(detect(end, above).box, cv::Rect2f(truth)), 0.5);
+  EXPECT_GT(boxIoU(detect(truth, above).box, cv::Rect2f(truth)), 0.5);
+  // A structure narrower than interior_min_width_m is a person's size: not tested.
+  LocalizerParams narrow = stepParams();
+  narrow.filters.interior_min_score = above;
+  narrow.filters.interior_min_width_m = scene.rig.baseline_m * middle.width / 20.0 + 0.1;
+  SegmentationResult s = scene.segmentation;
+  s.obstacles[0].box = middle;
+  EXPECT_GT(boxIoU(bestMatch(narrow, scene, s, truth).box, cv::Rect2f(truth)), 0.5);
+}
+
 TEST(Localizer, EmptySegmentationGivesNoDetection) {
   const auto scene = test::renderFigureScene({});
   HumanLocalizer localizer(stepParams());
