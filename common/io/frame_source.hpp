@@ -37,6 +37,10 @@ inline constexpr const char* kFrameSourceHelp =
     "DIR/calib.yaml), kitti:DIR (image_2, image_3, calib) or ros2:LEFT_IMAGE,RIGHT_IMAGE[,LEFT_INFO,RIGHT_INFO] "
     "(ROS 2 camera topics; only where the acquisition stage reads the source: run, stereoguard-acquisition)";
 
+inline constexpr const char* kSequenceHelp =
+    "the frames are consecutive (a drive in KITTI layout): keep the previous frame's ground line and the tracks "
+    "(default: synthetic scenes and KITTI object frames each stand alone; pairs:DIR and ros2: are one sequence)";
+
 // True when `spec` starts with "ros2:".
 bool isRos2SourceSpec(const std::string& spec);
 // Throws InputError, listing every valid kind, when the kind of `spec` is none of them.

@@ -25,7 +25,8 @@ AcquisitionService::AcquisitionService(dds::ShutdownSignal& signals, const Acqui
   // Flow control only where nothing else paces the frames (a camera paces itself).
   flow_control_ = params_.rate_hz <= 0.0 && params_.max_in_flight > 0 && !isRos2SourceSpec(source_spec);
   if (flow_control_) runtime_.attach(answers_reader_.dataAvailable(), 1);
-  runtime_.log().info("source {}, rate {} Hz{}, frames {}", source_->describe(), params_.rate_hz,
+  runtime_.log().info("source {}{}, rate {} Hz{}, frames {}", source_->describe(),
+                      params_.sequence ? " (one sequence)" : "", params_.rate_hz,
                       flow_control_ ? " (at most " + std::to_string(params_.max_in_flight) +
                                           " frames ahead of human_detections)"
                                     : std::string(),
@@ -49,11 +50,16 @@ std::unique_ptr<FrameSource> AcquisitionService::openSource(const std::string& s
 
 bool AcquisitionService::nextPair(StereoPair& pair) {
   if (!preloaded_.empty()) {
+    const bool first = preload_next_ == 0;  // the loop starts over: back in time
     pair = preloaded_[preload_next_];
     preload_next_ = (preload_next_ + 1) % preloaded_.size();
+    if (params_.sequence) pair.scene_start = first;
     return true;
   }
-  return source_->next(pair);
+  if (!source_->next(pair)) return false;
+  if (params_.sequence) pair.scene_start = !started_;
+  started_ = true;
+  return true;
 }
 
 void AcquisitionService::publish(const StereoPair& pair, bool last) {

@@ -22,6 +22,10 @@ struct AcquisitionParams {
   double rate_hz = 10.0;     // frames per second; 0 = as fast as the readers take them
   int min_readers = 1;       // matched StereoFrame readers before the first frame is written
   int preload_frames = 0;    // read this many frames first and publish them in a loop (0 = stream the source)
+  // The source's frames are one sequence (a drive in KITTI layout): only the first frame (and
+  // the first again when preloaded frames start over) starts a scene. Otherwise each frame
+  // says itself (synthetic and kitti: every frame, pairs: and ros2: the first).
+  bool sequence = false;
   // rate_hz 0: at most this many frames published and not yet answered on
   // human_detections (once a localization writer is matched); 0 = no limit.
   int max_in_flight = 1;
@@ -36,6 +40,9 @@ struct AcquisitionParams {
     v.field("min_readers", min_readers, 0, 64, "readers", "matched readers awaited before the first frame");
     v.field("preload_frames", preload_frames, 0, 10000, "frames",
             "frames read up-front and repeated (measures the pipeline without the source's cost)");
+    v.field("sequence", sequence, 0, 1, "",
+            "the frames are consecutive (a drive in KITTI layout): only the first starts a scene, so segmentation "
+            "keeps its ground line and localization its tracks");
     v.field("max_in_flight", max_in_flight, 0, 64, "frames",
             "with rate_hz 0: frames published but not yet answered on human_detections (0 = no limit)");
     v.field("in_flight_timeout_ms", in_flight_timeout_ms, 10, 60000, "milliseconds",
@@ -66,6 +73,7 @@ class AcquisitionService {
   dds::TopicWriter<sg_idl_StereoFrame> writer_;
   std::vector<StereoPair> preloaded_;
   std::size_t preload_next_ = 0;
+  bool started_ = false;  // a frame was read (sequence: the next one continues it)
   std::uint64_t next_frame_id_ = 0;
   std::uint64_t next_seq_ = 0;
   dds::StereoFrameData data_;

@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
   double rate_hz = -1.0;
   int min_readers = -1;
   int preload = -1;
+  bool sequence = false;
   return sg::dds::serviceMain(
       argc, argv, "acquisition",
       [&](CLI::App& app) {
@@ -20,6 +21,7 @@ int main(int argc, char** argv) {
         app.add_option("--rate", rate_hz, "frames per second (overrides rate_hz; 0 = as fast as possible)");
         app.add_option("--min-readers", min_readers, "matched readers awaited before the first frame");
         app.add_option("--preload", preload, "read N frames first and repeat them");
+        app.add_flag("--sequence", sequence, sg::kSequenceHelp);
       },
       [&](const sg::dds::ServiceOptions& opts) {
         sg::AcquisitionParams params;
@@ -27,6 +29,7 @@ int main(int argc, char** argv) {
         if (rate_hz >= 0.0) params.rate_hz = rate_hz;
         if (min_readers >= 0) params.min_readers = min_readers;
         if (preload >= 0) params.preload_frames = preload;
+        if (sequence) params.sequence = true;
         params.validate();
         sg::AcquisitionService service(signals, params, source, calib, opts.frames);
         service.run();

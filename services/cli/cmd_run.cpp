@@ -32,6 +32,7 @@ struct RunOptions {
   std::string summary_json;
   bool no_table = false;
   int preload = 0;
+  bool sequence = false;
 };
 
 nlohmann::json summaryJson(const PipelineSummary& s) {
@@ -73,6 +74,7 @@ int runCommand(const RunOptions& o) {
   options.config_dir = o.config_dir;
   options.table = !o.no_table;
   options.preload = o.preload;
+  options.sequence = o.sequence;
   const PipelineSummary summary = runPipeline(options, signals);
   std::cout << formatSummary(summary) << std::flush;
   if (!o.summary_json.empty()) {
@@ -103,6 +105,7 @@ void addRunCommand(CLI::App& app) {
   cmd->add_option("--summary-json", options->summary_json, "write the frame accounting as JSON");
   cmd->add_option("--preload", options->preload, "acquisition reads N frames once and repeats them")
       ->check(CLI::Range(0, 10000));
+  addSequenceFlag(*cmd, options->sequence);
   cmd->add_flag("--no-table", options->no_table, "no live table (logs and the summary only)");
   cmd->callback([options] {
     const int status = runCommand(*options);

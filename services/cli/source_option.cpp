@@ -13,10 +13,7 @@ CLI::Option* addSourceOption(CLI::App& cmd, std::string& source) {
 }
 
 CLI::Option* addSequenceFlag(CLI::App& cmd, bool& sequence) {
-  return cmd.add_flag("--sequence", sequence,
-                      "the frames are consecutive (a drive in KITTI layout): keep the previous frame's ground line "
-                      "and the tracks (default: synthetic scenes and KITTI object frames each stand alone; pairs:DIR "
-                      "is one sequence)");
+  return cmd.add_flag("--sequence", sequence, kSequenceHelp);
 }
 
 }  // namespace sg::cli

@@ -365,6 +365,7 @@ PipelineSummary runPipeline(const PipelineOptions& options, dds::ShutdownSignal&
     if (options.frames > 0) args.insert(args.end(), {"--frames", std::to_string(options.frames)});
     if (!options.calib.empty()) args.insert(args.end(), {"--calib", options.calib});
     if (options.preload > 0) args.insert(args.end(), {"--preload", std::to_string(options.preload)});
+    if (options.sequence) args.emplace_back("--sequence");
     supervisor.start(ProcessSpec{"acquisition", paths["acquisition"], args, true, options.quiet_children});
   }
 

@@ -112,6 +112,7 @@ struct PipelineOptions {
   std::string dds_config;         // Cyclone XML; empty = config/dds/loopback.xml
   std::string config_dir;         // per-service YAML files (<stage>.yaml); empty = the repository's config/
   int preload = 0;                // acquisition --preload
+  bool sequence = false;          // acquisition --sequence
   bool table = true;              // print the live table once a second
   bool quiet_children = false;    // send the stages' logs to /dev/null
 };

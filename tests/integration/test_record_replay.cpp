@@ -27,6 +27,7 @@ using namespace std::chrono_literals;
 namespace fs = std::filesystem;
 constexpr int kRecordDomain = 201;  // one domain per integration test: they may run in parallel
 constexpr int kReplayDomain = 202;
+constexpr int kSceneDomain = 203;
 constexpr int kFrames = 4;
 constexpr const char* kSource = "synthetic:5";
 
@@ -107,6 +108,32 @@ TEST(RecordReplay, ReplayedRecordingIsBitExactWithFrameIdsAndTimestampsInOrder) 
   }
   EXPECT_TRUE(frames1.back()["end_of_stream"].get<bool>());
   EXPECT_TRUE(frames2.back()["end_of_stream"].get<bool>());
+  fs::remove_all(dir);
+}
+
+// Synthetic seeds are unrelated scenes: acquisition marks every frame as a scene start, and the
+// stages drop their state there. With --sequence (a drive in KITTI layout) only the first is.
+TEST(RecordReplay, AcquisitionMarksSceneStartsAndASequenceStartsOnce) {
+  test::useLoopbackDds();
+  const fs::path dir = fs::path(SG_TEST_LOG_DIR) / ("scene_starts_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const std::string logs = SG_TEST_LOG_DIR;
+  auto sceneStarts = [&](const std::string& name, bool sequence) {
+    const fs::path rec = dir / name;
+    test::ChildProcess record({SG_STEREOGUARD_EXE, "record", "--out", rec.string(), "--frames", "3", "--duration", "60"},
+                              test::loopbackEnv(kSceneDomain), logs + "/" + name + "_record.log");
+    std::vector<std::string> args{SG_ACQUISITION_EXE, "--source", kSource, "--frames", "3", "--rate", "10",
+                                  "--min-readers", "1"};
+    if (sequence) args.emplace_back("--sequence");
+    test::ChildProcess acquisition(args, test::loopbackEnv(kSceneDomain), logs + "/" + name + "_acquisition.log");
+    EXPECT_TRUE(test::exitsWith(acquisition, 0, 60s, logs + "/" + name + "_acquisition.log"));
+    EXPECT_TRUE(test::exitsWith(record, 0, 30s, logs + "/" + name + "_record.log"));
+    std::vector<bool> starts;
+    for (const auto& frame : readLines(rec / "frames.jsonl")) starts.push_back(frame["scene_start"].get<bool>());
+    return starts;
+  };
+  EXPECT_EQ(sceneStarts("scenes", false), (std::vector<bool>{true, true, true}));
+  EXPECT_EQ(sceneStarts("sequence", true), (std::vector<bool>{true, false, false}));
   fs::remove_all(dir);
 }
 
