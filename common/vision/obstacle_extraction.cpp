@@ -1288,7 +1288,11 @@ int ObstacleExtractor::trimOccludedLeft(const cv::Mat& left, const cv::Mat& righ
       const int b = behind(y, o.box.x);
       if (b >= 0) min_behind = std::min(min_behind, b);
     }
-    const int band = std::min(d - min_behind, o.box.width / 2);
+    // The band may be wider than the object (a thin pole before far background): all of the box
+    // but the narrowest obstacle's width may go.
+    const int most = std::min(static_cast<int>(params_.occluded_max_share * o.box.width),
+                              o.box.width - params_.min_width_px);
+    const int band = std::min(d - min_behind, most);
     int x = o.box.x;
     for (; x < o.box.x + band; ++x) {
       int own = 0, ambiguous = 0;

@@ -87,6 +87,7 @@ struct ObstacleParams {
   // their outline: the two sides come out as narrow obstacles at one offset. They are one
   // obstacle when the columns between them are plain and the face's top outline joins them.
   bool trim_occluded_left = true;  // left-right consistency on the band left of each obstacle
+  double occluded_max_share = 1.0;  // share of an obstacle's width that band may take (min_width_px columns stay)
   // The dilated feature mask reaches past an object's outline; against a plain or smooth
   // surround those pixels match at the object's offset as well as at any other.
   bool trim_plain_sides = true;    // side columns without a pixel that pins the offset are trimmed ...
@@ -154,6 +155,8 @@ struct ObstacleParams {
     v.field("merge_overlap", merge_overlap, 0.0, 1.0, "", "overlap merging a cluster into an earlier one");
     v.field("trim_occluded_left", trim_occluded_left, 0, 1, "",
             "trim the band left of an obstacle that only the left camera sees");
+    v.field("occluded_max_share", occluded_max_share, 0.0, 1.0, "",
+            "share of an obstacle's width that band may take (at least min_width_px columns stay)");
     v.field("trim_plain_sides", trim_plain_sides, 0, 1, "",
             "trim side columns whose matched pixels lie in plain surroundings (the feature mask's reach)");
     v.field("plain_side_reach_px", plain_side_reach_px, 0, 64, "pixels",
