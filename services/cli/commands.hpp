@@ -25,8 +25,9 @@ void addReplayCommand(CLI::App& app);
 // every source kind (io/frame_source.hpp). A command checks the kind with
 // checkFrameSourceKind() or openFrameSource(), whose error lists the valid kinds.
 CLI::Option* addSourceOption(CLI::App& cmd, std::string& source);
-// The --sequence flag of the commands that run the detector frame by frame (detect,
-// evaluate): keep its state across frames the source calls scenes of their own.
+// The --sequence flag of the commands that read frames in order (detect and evaluate, and run,
+// which passes it to the acquisition stage): keep the state across frames the source calls
+// scenes of their own.
 CLI::Option* addSequenceFlag(CLI::App& cmd, bool& sequence);
 
 }  // namespace sg::cli
