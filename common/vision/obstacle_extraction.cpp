@@ -1293,19 +1293,27 @@ int ObstacleExtractor::trimOccludedLeft(const cv::Mat& left, const cv::Mat& righ
     const int most = std::min(static_cast<int>(params_.occluded_max_share * o.box.width),
                               o.box.width - params_.min_width_px);
     const int band = std::min(d - min_behind, most);
+    // The band is the longest run of columns from the left whose pixels are, together, at least
+    // two thirds ambiguous: it ends where the running sum of 3 * ambiguous - 2 * own peaks, so
+    // that one column of chance pixels inside it does not stop the trim.
     int x = o.box.x;
-    for (; x < o.box.x + band; ++x) {
+    long balance = 0, best = 0;
+    for (int c = o.box.x; c < o.box.x + band; ++c) {
       int own = 0, ambiguous = 0;
       for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
-        if (labels.ptr<std::uint8_t>(y)[x] != o.label) continue;
+        if (labels.ptr<std::uint8_t>(y)[c] != o.label) continue;
         ++own;
-        // The right pixel x - d shows what is behind, visible in the left image at x - d + b.
-        const int b = behind(y, x);
+        // The right pixel c - d shows what is behind, visible in the left image at c - d + b.
+        const int b = behind(y, c);
         if (b < 0 || b >= d - tol - 1) continue;
-        ambiguous += matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x - d + b, b - tol, b + tol,
+        ambiguous += matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), c - d + b, b - tol, b + tol,
                              params_.grey_tolerance, params_.match_half_window_px, cols);
       }
-      if (own > 0 && 3 * ambiguous < 2 * own) break;  // the obstacle itself
+      balance += 3 * ambiguous - 2 * own;
+      if (balance >= best) {
+        best = balance;
+        x = c + 1;
+      }
     }
     if (x == o.box.x) continue;
     trimmed += x - o.box.x;

@@ -153,6 +153,58 @@ PoleFeatures poleFeatures(int surround, int halo) {
   return p;
 }
 
+// A thin object at offset 20 in columns [62, 68) before a background at offset 2; its cluster
+// also holds columns [44, 60), whose texture matched 20 by chance (the occluded band).
+// Every right pixel those matches used shows the background, except in column 50: there the
+// left pixel the test compares (50 - 20 + 2 = 32) is no feature, as where chance pixels inside
+// a real band match nothing behind.
+struct BandScene {
+  cv::Mat left, right, labels;
+  GroundProfile ground;
+  ObstacleCluster cluster;
+};
+BandScene bandScene() {
+  constexpr int kRows = 30, kCols = 120, kObject = 62, kWidth = 6, kD = 20, kB = 2, kBand = 44;
+  BandScene s;
+  s.left = cv::Mat::zeros(kRows, kCols, CV_8UC1);
+  s.right = cv::Mat::zeros(kRows, kCols, CV_8UC1);
+  s.labels = cv::Mat::zeros(kRows, kCols, CV_8UC1);
+  // Grey steps of 37 (mod 220): neighbours differ by far more than the grey tolerance.
+  auto grey = [](int y, int x) { return static_cast<std::uint8_t>(20 + (37 * x + 53 * y) % 220); };
+  for (int y = 0; y < kRows; ++y)
+    for (int x = 0; x < kCols; ++x) {
+      const bool object = x >= kObject && x < kObject + kWidth;
+      s.left.at<std::uint8_t>(y, x) = object ? grey(y + 7, x + 91) : grey(y, x);
+    }
+  for (int y = 0; y < kRows; ++y) {
+    for (int x = 0; x + kB < kCols; ++x) s.right.at<std::uint8_t>(y, x) = s.left.at<std::uint8_t>(y, x + kB);
+    for (int x = kObject; x < kObject + kWidth; ++x) s.right.at<std::uint8_t>(y, x - kD) = s.left.at<std::uint8_t>(y, x);
+    s.left.at<std::uint8_t>(y, 50 - kD + kB) = 0;
+    for (int x = kBand; x < kObject + kWidth; ++x)
+      if (x < kObject - 2 || x >= kObject) s.labels.at<std::uint8_t>(y, x) = kLabelFirstObstacle;
+  }
+  s.ground.source = GroundSource::kHough;
+  s.ground.horizon_row = kRows;  // every row shows the background
+  s.ground.background_offset = kB;
+  s.ground.offset_per_row.assign(kRows, GroundProfile::kUnknown);
+  s.cluster.offset_px = s.cluster.min_offset_px = s.cluster.max_offset_px = kD;
+  s.cluster.box = cv::Rect(kBand, 0, kObject + kWidth - kBand, kRows);
+  s.cluster.feature_count = kRows * (kObject - 2 - kBand + kWidth);
+  return s;
+}
+
+TEST(ObstacleSides, ChanceColumnInsideTheOccludedBandDoesNotStopItsTrim) {
+  BandScene s = bandScene();
+  std::vector<ObstacleCluster> obstacles{s.cluster};
+  const ObstacleExtractor extractor;
+  EXPECT_EQ(extractor.trimOccludedLeft(s.left, s.right, s.ground, s.labels, obstacles), 18);
+  EXPECT_EQ(obstacles[0].box, cv::Rect(62, 0, 6, 30));
+  EXPECT_EQ(obstacles[0].feature_count, 30 * 6);
+  EXPECT_EQ(s.labels.at<std::uint8_t>(10, 50), kLabelUnassigned);
+  EXPECT_EQ(s.labels.at<std::uint8_t>(10, 59), kLabelUnassigned);
+  EXPECT_EQ(s.labels.at<std::uint8_t>(10, 62), kLabelFirstObstacle);
+}
+
 // An obstacle that the trims leave with fewer matched pixels than any cluster the loop accepts
 // is dropped: its pixels return to unassigned, and the obstacles after it are renumbered.
 TEST(ObstacleSides, RemnantsOfTrimmedObstaclesAreDropped) {
