@@ -37,7 +37,7 @@ namespace sg {
 struct CandidateParams {
   double min_height_m = 0.9;      // smallest person (a child), metres
   double max_height_m = 2.1;      // tallest person, metres
-  double min_width_m = 0.25;      // narrowest person box (side view), metres
+  double min_width_m = 0.18;      // narrowest person box (side view), metres
   double max_width_m = 1.0;       // widest person box (walking, arms swinging), metres
   double min_aspect = 1.4;        // box height / width
   double max_aspect = 5.0;
@@ -200,7 +200,7 @@ struct ScoreParams {
   double bias = 1.074;
   double w_symmetry = 0.655;
   double w_shape = 2.081;
-  double min_score = 0.400;  // detections below are dropped
+  double min_score = 0.390;  // detections below are dropped
 
   template <class V>
   void visit(V& v) {
