@@ -105,7 +105,7 @@ struct FilterParams {
   double interior_min_width_m = 1.5;
   double interior_margin_widths = 1.0;
   double interior_min_score = 0.7;
-  double nms_iou = 0.35;                  // duplicates: intersection over union above this
+  double nms_iou = 0.25;                  // duplicates: intersection over union above this
   double nms_containment = 0.7;           // duplicates: share of the smaller box inside the larger one
 
   template <class V>
@@ -200,7 +200,7 @@ struct ScoreParams {
   double bias = 1.074;
   double w_symmetry = 0.655;
   double w_shape = 2.081;
-  double min_score = 0.390;  // detections below are dropped
+  double min_score = 0.395;  // detections below are dropped
 
   template <class V>
   void visit(V& v) {

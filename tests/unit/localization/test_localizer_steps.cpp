@@ -162,6 +162,49 @@ TEST(Localizer, FindsTwoFiguresAtTheirDistances) {
   }
 }
 
+// Two walking people at one distance, side by side, their boxes overlapping by a few columns
+// (an arm of one beside the other): each keeps its own box. Boxes overlapping more than
+// filters.nms_iou are one object framed twice, and only the higher score stays.
+TEST(Localizer, PeopleSideBySideAreBothKept) {
+  const auto scene = test::renderFigureScene(
+      {test::Figure{300.0, 20.0, 1.75, true, 5}, test::Figure{300.0, 20.0, 1.75, true, 6}});
+  const int width = scene.figure_boxes[0].width;
+  const auto side = test::renderFigureScene({test::Figure{300.0, 20.0, 1.75, true, 5},
+                                              test::Figure{300.0 + 0.7 * width, 20.0, 1.75, true, 6}});
+  const double overlap = boxIoU(cv::Rect2f(side.figure_boxes[0]), cv::Rect2f(side.figure_boxes[1]));
+  std::printf("figure width %d px, IoU of the two true boxes %.2f\n", width, overlap);
+  ASSERT_GT(overlap, 0.0);
+  HumanLocalizer localizer(stepParams());
+  std::vector<HumanDetection> out;
+  localizer.compute(side.left, side.right, side.rig, side.segmentation, out);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const cv::Rect2f truth(side.figure_boxes[i]);
+    EXPECT_TRUE(std::any_of(out.begin(), out.end(), [&](const HumanDetection& h) { return boxIoU(h.box, truth) >= 0.5; }))
+        << "figure " << i;
+  }
+}
+
+TEST(Localizer, BoxesOverlappingMoreThanTheNmsLimitAreOneObject) {
+  const FilterParams f;
+  auto detection = [](float x, float score) {
+    HumanDetection h;
+    h.box = cv::Rect2f(x, 100.0f, 20.0f, 60.0f);
+    h.score = score;
+    return h;
+  };
+  // 20-wide boxes 14 apart: IoU 6 / 34 = 0.18 (two people shoulder to shoulder) ...
+  std::vector<HumanDetection> apart{detection(100.0f, 0.9f), detection(114.0f, 0.5f)};
+  // ... 10 apart: IoU 10 / 30 = 0.33 (half of one body framed again).
+  std::vector<HumanDetection> twice{detection(100.0f, 0.9f), detection(110.0f, 0.5f)};
+  ASSERT_LT(6.0 / 34.0, f.nms_iou);
+  ASSERT_GT(10.0 / 30.0, f.nms_iou);
+  suppressDuplicates(apart, f.nms_iou, f.nms_containment);
+  suppressDuplicates(twice, f.nms_iou, f.nms_containment);
+  EXPECT_EQ(apart.size(), 2u);
+  ASSERT_EQ(twice.size(), 1u);
+  EXPECT_FLOAT_EQ(twice[0].score, 0.9f);
+}
+
 // The detection of `segmentation` best overlapping `truth`, of cluster `label` when that is
 // not -1 (an empty box far away when there is none).
 HumanDetection bestMatch(const LocalizerParams& params, const test::FigureScene& scene,

@@ -154,14 +154,14 @@ TEST(SyntheticStatistics, SideViewWithoutASymmetricCandidateStillGetsABox) {
 }
 
 // The symmetry search starts at the narrowest person box (candidates.min_width_m). From the
-// side a person is 0.18-0.25 m deep; searched only from 0.25 m, the people 18.2 m away in scene
-// seed 48 and 9.5 m away in seed 97 get boxes around wider, off-centre symmetric stretches (30
-// px for a 20 px label in seed 48: IoU 0.41, and 0.38 in seed 97); from 0.18 m the narrower
-// symmetric core wins and the box frames them (IoU 0.76 and 0.66).
+// side a person is 0.18-0.25 m deep; searched only from 0.25 m, the people 9.5 m away in scene
+// seed 97 and 28.9 m away in seed 1013 get boxes around wider, off-centre symmetric stretches
+// (IoU 0.38 and 0.44 with their labels); from 0.18 m the narrower symmetric core wins and the
+// box frames them (IoU 0.66 and 0.51).
 TEST(SyntheticStatistics, NarrowestPersonBoxLetsTheSymmetricCoreWin) {
   auto narrowest = [](double m) { return [m](DetectorParams& p) { p.localizer.candidates.min_width_m = m; }; };
   ASSERT_LE(DetectorParams{}.localizer.candidates.min_width_m, 0.18);
-  for (const auto& [seed, z] : {std::pair<std::uint64_t, double>{48, 18.2}, {97, 9.5}}) {
+  for (const auto& [seed, z] : {std::pair<std::uint64_t, double>{97, 9.5}, {1013, 28.9}}) {
     EXPECT_GE(bestIouWithPerson(seed, z, narrowest(0.18)), 0.5) << "seed " << seed;
     EXPECT_LT(bestIouWithPerson(seed, z, narrowest(0.25)), 0.5) << "seed " << seed;
   }
