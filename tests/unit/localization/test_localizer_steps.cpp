@@ -166,9 +166,7 @@ TEST(Localizer, FindsTwoFiguresAtTheirDistances) {
 // (an arm of one beside the other): each keeps its own box. Boxes overlapping more than
 // filters.nms_iou are one object framed twice, and only the higher score stays.
 TEST(Localizer, PeopleSideBySideAreBothKept) {
-  const auto scene = test::renderFigureScene(
-      {test::Figure{300.0, 20.0, 1.75, true, 5}, test::Figure{300.0, 20.0, 1.75, true, 6}});
-  const int width = scene.figure_boxes[0].width;
+  const int width = test::renderFigureScene({test::Figure{300.0, 20.0, 1.75, true, 5}}).figure_boxes[0].width;
   const auto side = test::renderFigureScene({test::Figure{300.0, 20.0, 1.75, true, 5},
                                               test::Figure{300.0 + 0.7 * width, 20.0, 1.75, true, 6}});
   const double overlap = boxIoU(cv::Rect2f(side.figure_boxes[0]), cv::Rect2f(side.figure_boxes[1]));
