@@ -1396,17 +1396,31 @@ int ObstacleExtractor::dropRemnants(cv::Mat& labels, std::vector<ObstacleCluster
 }
 
 int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
-                                      std::vector<ObstacleCluster>& obstacles) const {
+                                      std::vector<ObstacleCluster>& obstacles, const GroundProfile* ground) const {
   if (!params_.trim_plain_sides) return 0;
   if (left.type() != CV_8UC1 || labels.size() != left.size() || labels.type() != CV_8UC1)
     throw InputError("obstacles: feature and label images must be mono8 of the same size");
   const int cols = left.cols;
   const int tol = params_.grey_tolerance;
-  // Does column x hold a pixel of obstacle o whose horizontal neighbours differ by more than tol?
+  // At the obstacle's foot the ground's offset is the obstacle's own: ground texture there matches
+  // at that offset as well as the obstacle does, and pins nothing.
+  const float contact = static_cast<float>(params_.plain_side_contact_px);
+  auto atFoot = [&](const ObstacleCluster& o, int y, int x) {
+    if (!ground || contact < 0.0f || y < ground->horizon_row ||
+        y >= static_cast<int>(ground->offset_per_row.size()))
+      return false;
+    const float g = ground->groundOffsetAt(y, static_cast<float>(x));
+    return std::isfinite(g) && std::fabs(g - static_cast<float>(o.offset_px)) <= contact;
+  };
+  // Does column x hold a pixel of obstacle o whose horizontal neighbours differ by more than tol
+  // (away from its foot)?
   auto pins = [&](const ObstacleCluster& o, int x) {
     if (x <= 0 || x >= cols - 1) return true;  // the image border: nothing to compare, keep
-    for (int y = o.box.y; y < o.box.y + o.box.height; ++y)
-      if (labels.ptr<std::uint8_t>(y)[x] == o.label && pinsOffset(left.ptr<std::uint8_t>(y), x, cols, tol)) return true;
+    for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
+      if (labels.ptr<std::uint8_t>(y)[x] != o.label || !pinsOffset(left.ptr<std::uint8_t>(y), x, cols, tol)) continue;
+      if (atFoot(o, y, x)) continue;
+      return true;
+    }
     return false;
   };
   int trimmed = 0;

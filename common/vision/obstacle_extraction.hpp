@@ -92,6 +92,8 @@ struct ObstacleParams {
   // surround those pixels match at the object's offset as well as at any other.
   bool trim_plain_sides = true;    // side columns without a pixel that pins the offset are trimmed ...
   int plain_side_reach_px = 3;     // ... up to this many per side: the features' dilation (2) plus the Sobel's 1
+  double plain_side_contact_px = 2.0;  // rows whose ground offset is within this of the obstacle's (its foot: the
+                                       // ground there matches at its offset too) pin nothing (negative: they do)
   bool join_plain_faces = true;
   double plain_max_feature_fraction = 0.05;  // share of the gap's inner pixels that are features pinning an
                                              // offset (not along a horizontal edge) up to which it is plain;
@@ -161,6 +163,9 @@ struct ObstacleParams {
             "trim side columns whose matched pixels lie in plain surroundings (the feature mask's reach)");
     v.field("plain_side_reach_px", plain_side_reach_px, 0, 64, "pixels",
             "most columns trimmed per side: how far the feature mask reaches past an outline");
+    v.field("plain_side_contact_px", plain_side_contact_px, -1.0, 100.0, "pixels",
+            "rows whose ground offset is within this of the obstacle's (its foot) do not pin a side column "
+            "(negative: they do)");
     v.field("join_plain_faces", join_plain_faces, 0, 1, "", "join the two sides of a plain face");
     v.field("plain_max_feature_fraction", plain_max_feature_fraction, 0.0, 1.0, "",
             "share of the gap that is features pinning an offset (not horizontal edges; one side only: "
@@ -217,8 +222,10 @@ class ObstacleExtractor {
   // (ObstacleParams::trim_plain_sides): a pixel pins it when its left and right neighbours in
   // the left feature image differ by more than grey_tolerance; elsewhere a match holds at any
   // offset (the plain surround that the dilated feature mask reaches beside an outline).
-  // `left` is the whole left feature image. Returns the number of columns trimmed.
-  int trimPlainSides(const cv::Mat& left, cv::Mat& labels, std::vector<ObstacleCluster>& obstacles) const;
+  // `left` is the whole left feature image. With `ground`, the rows at an obstacle's foot
+  // (plain_side_contact_px) pin nothing. Returns the number of columns trimmed.
+  int trimPlainSides(const cv::Mat& left, cv::Mat& labels, std::vector<ObstacleCluster>& obstacles,
+                     const GroundProfile* ground = nullptr) const;
 
   // Joins the two sides of plain faces (ObstacleParams::join_plain_faces): `left` is the whole
   // left feature image (before any removal), `labels` as left by compute(); joined obstacles

@@ -265,6 +265,44 @@ TEST(ObstacleSides, TexturedSurroundAndWidePlainSidesAreKept) {
   EXPECT_EQ(ObstacleExtractor(off).trimPlainSides(plain.features, plain.labels, obstacles), 0);
 }
 
+// The pole of PlainSurroundOfAThinPoleIsTrimmed standing on textured ground: on its last rows
+// the ground's offset reaches the pole's (20), and the ground texture there pins every column
+// of the surround. Those rows say nothing about where the pole ends: with the ground profile
+// given, the surround is trimmed as against the sky; without it, the foot keeps it.
+TEST(ObstacleSides, GroundTextureAtTheFootPinsNothing) {
+  PoleFeatures p = poleFeatures(200, 3);
+  constexpr std::uint8_t kTexture[3] = {40, 120, 200};
+  for (int y = 31; y < 35; ++y)
+    for (int x = 0; x < p.features.cols; ++x) p.features.at<std::uint8_t>(y, x) = kTexture[(x + y) % 3];
+  GroundProfile ground;
+  ground.source = GroundSource::kHough;
+  ground.horizon_row = 0;
+  ground.background_offset = 1.0f;
+  ground.offset_per_row.resize(static_cast<std::size_t>(p.features.rows));
+  for (int y = 0; y < p.features.rows; ++y)  // 0.5 px per row, 20 on the pole's last row (34)
+    ground.offset_per_row[static_cast<std::size_t>(y)] = 20.0f - 0.5f * static_cast<float>(34 - y);
+  const float contact = static_cast<float>(ObstacleParams{}.plain_side_contact_px);
+  ASSERT_GE(ground.offset_per_row[31], 20.0f - contact);  // the textured rows are at the foot ...
+  ASSERT_LT(ground.offset_per_row[29], 20.0f - contact);  // ... and the pole's rows above are not
+
+  // Each call gets the pole's own labels (a trim relabels the columns it takes).
+  auto trim = [&](const ObstacleParams& params, const GroundProfile* g, cv::Rect& box) {
+    cv::Mat labels = p.labels.clone();
+    std::vector<ObstacleCluster> obstacles{p.cluster};
+    const int trimmed = ObstacleExtractor(params).trimPlainSides(p.features, labels, obstacles, g);
+    box = obstacles[0].box;
+    return trimmed;
+  };
+  cv::Rect box;
+  EXPECT_EQ(trim(ObstacleParams{}, &ground, box), 4);
+  EXPECT_EQ(box, cv::Rect(24, 5, 8, 30));
+  EXPECT_EQ(trim(ObstacleParams{}, nullptr, box), 0);
+  EXPECT_EQ(box, p.cluster.box);
+  ObstacleParams at_foot_too;
+  at_foot_too.plain_side_contact_px = -1.0;
+  EXPECT_EQ(trim(at_foot_too, &ground, box), 0);
+}
+
 // Segments `scene` with `p`; the last obstacle with IoU >= 0.5 against `truth`, or null.
 const ObstacleCluster* segmentAndFind(const test::AnalyticScene& scene, const SegmenterParams& p,
                                       const cv::Rect& truth, SegmentationResult& r) {
