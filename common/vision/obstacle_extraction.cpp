@@ -1373,6 +1373,110 @@ void ObstacleExtractor::foldInto(std::size_t& i, const cv::Rect& reach, int d_lo
   obstacles.assign(kept.begin(), kept.end());
 }
 
+int ObstacleExtractor::joinRecedingParts(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
+                                         cv::Mat& labels, std::vector<ObstacleCluster>& obstacles, double baseline_m) {
+  if (!params_.join_receding_parts || baseline_m <= 0.0 || ground.source != GroundSource::kHough) return 0;
+  if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() || labels.size() != left.size() ||
+      labels.type() != CV_8UC1)
+    throw InputError("obstacles: feature and label images must be mono8 of the same size");
+  const int rows = left.rows, cols = left.cols;
+  const int tol = params_.offset_tolerance_px;
+  // Does the left feature at (y, x) match the right image at offset d (+-tol, the loop's window)?
+  auto matches = [&](int y, int x, int d) {
+    return matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, d - tol, d + tol, params_.grey_tolerance,
+                   params_.match_half_window_px, cols);
+  };
+  // Parts a (left) and b (right): -1 when they are not one face; else the gap's features matching
+  // at the face's offsets (labelled a's with label_them, otherwise 0).
+  auto gapEvidence = [&](const ObstacleCluster& a, const ObstacleCluster& b, bool label_them) {
+    const int x0 = a.box.x + a.box.width, x1 = b.box.x - 1;  // gap columns [x0, x1]
+    const int gap = x1 - x0 + 1;
+    if (gap < 1 || gap > params_.receding_max_gap_widths * std::max(a.box.width, b.box.width)) return -1;
+    const int da = a.offset_px, db = b.offset_px;
+    if (std::abs(da - db) < params_.receding_min_offset_step_px || da <= 0 || db <= 0) return -1;
+    // One face: the same height in metres at both parts.
+    const double ha = a.box.height * baseline_m / da, hb = b.box.height * baseline_m / db;
+    if (std::abs(ha - hb) > params_.plain_height_tolerance * std::max(ha, hb)) return -1;
+    // Along a vertical plane the offset is linear in the column: the line through the parts'
+    // centres. The face's top and bottom rows run straight from one part's side to the other's.
+    const double xa = a.box.x + 0.5 * (a.box.width - 1), xb = b.box.x + 0.5 * (b.box.width - 1);
+    // A plane X = a Z + c (camera frame) shows offset d = B (x - x_vanishing) / c: the line's
+    // slope says where the plane passes the camera. A face passing within a few metres of the
+    // vehicle is no face; two separate objects side by side make such steep lines.
+    if (baseline_m * (xb - xa) / std::abs(db - da) < params_.receding_min_lateral_m) return -1;
+    const int ta = a.box.y, tb = b.box.y;
+    const int ba = a.box.y + a.box.height - 1, bb = b.box.y + b.box.height - 1;
+    auto along = [&](double u, double v, int x) {
+      return static_cast<int>(std::lround(u + (v - u) * (x - x0 + 1) / (gap + 1.0)));
+    };
+    // The evidence is the face's top outline: in most gap columns a feature within 2 rows of the
+    // straight top matches at the line's offset there. (The features inside the gap do not tell:
+    // the ground seen between two objects matches such offsets about as often as a face does.)
+    // When the parts are joined, the gap's features matching at the line's offsets take a's
+    // label, those the removal gave the ground or the background by chance too; rows where the
+    // ground's offset reaches the line's cannot tell and stay as they are.
+    int matched = 0, outlined = 0;
+    const float clearance = static_cast<float>(params_.ground_clearance_px);
+    for (int x = x0; x <= x1; ++x) {
+      const int d = static_cast<int>(std::lround(da + (db - da) * (x - xa) / (xb - xa)));
+      const int top = along(ta, tb, x), bottom = along(ba, bb, x);
+      for (int y = std::max(0, top); y <= std::min(rows - 1, bottom); ++y) {
+        if (y >= ground.horizon_row && y < static_cast<int>(ground.offset_per_row.size())) {
+          const float g = ground.groundOffsetAt(y, static_cast<float>(x));
+          if (std::isfinite(g) && g >= static_cast<float>(d) - clearance) continue;
+        }
+        std::uint8_t& label = labels.ptr<std::uint8_t>(y)[x];
+        if (!label_them || label == kLabelNone || label >= kLabelFirstObstacle || !matches(y, x, d)) continue;
+        ++matched;
+        label = static_cast<std::uint8_t>(a.label);
+      }
+      bool hit = false;
+      for (int y = std::max(0, top - 2); y <= std::min(rows - 1, top + 2) && !hit; ++y) {
+        const std::uint8_t label = labels.ptr<std::uint8_t>(y)[x];
+        const bool ours = label == kLabelUnassigned || label == a.label || label == b.label;
+        hit = ours && matches(y, x, d);
+      }
+      outlined += hit ? 1 : 0;
+    }
+    return outlined >= params_.plain_min_outline_fraction * gap ? matched : -1;
+  };
+  int joins = 0;
+  for (bool again = true; again;) {
+    again = false;
+    for (std::size_t i = 0; i < obstacles.size() && !again; ++i) {
+      for (std::size_t j = 0; j < obstacles.size() && !again; ++j) {
+        if (i == j || gapEvidence(obstacles[i], obstacles[j], false) < 0) continue;
+        // b joins a: the gap's matched features take a's label, b's pixels too, and the
+        // obstacles after b move up one label.
+        ObstacleCluster& a = obstacles[i];
+        const ObstacleCluster b = obstacles[j];
+        const int gap_matches = gapEvidence(a, b, true);
+        a.box |= b.box;
+        a.min_offset_px = std::min({a.min_offset_px, b.min_offset_px, a.offset_px, b.offset_px});
+        a.max_offset_px = std::max({a.max_offset_px, b.max_offset_px, a.offset_px, b.offset_px});
+        if (b.feature_count > a.feature_count) a.offset_px = b.offset_px;  // the larger part's offset
+        a.feature_count += b.feature_count + gap_matches;
+        LabelMap renumbered = unchangedLabels();
+        std::vector<ObstacleCluster> kept;
+        kept.reserve(obstacles.size() - 1);
+        for (std::size_t k = 0; k < obstacles.size(); ++k) {
+          if (k == j) continue;
+          ObstacleCluster o = obstacles[k];
+          o.label = kLabelFirstObstacle + static_cast<int>(kept.size());
+          renumbered[static_cast<std::size_t>(obstacles[k].label)] = static_cast<std::uint8_t>(o.label);
+          kept.push_back(o);
+        }
+        renumbered[static_cast<std::size_t>(b.label)] = renumbered[static_cast<std::size_t>(a.label)];
+        relabel(labels, renumbered);
+        obstacles = std::move(kept);
+        ++joins;
+        again = true;
+      }
+    }
+  }
+  return joins;
+}
+
 int ObstacleExtractor::dropRemnants(cv::Mat& labels, std::vector<ObstacleCluster>& obstacles) {
   const int least = std::min(params_.min_cluster_features, params_.weak_cluster_features);
   LabelMap renumbered = unchangedLabels();

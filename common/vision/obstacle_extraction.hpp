@@ -26,7 +26,8 @@
 //    has a person's size in metres (far people show only a few dozen rows);
 //  - after the loop, a left-right test trims the band left of each obstacle that only the
 //    left camera sees (trimOccludedLeft), and the sides of plain faces, at one offset or
-//    receding in depth, are joined into one obstacle (joinPlainFaces); last, side columns
+//    receding in depth, are joined into one obstacle (joinPlainFaces), and so are parts of one
+//    face receding in depth whose top outline runs between them (joinRecedingParts); last, side columns
 //    whose pixels do not pin the offset (the feature mask's reach into a plain surround) are
 //    trimmed (trimPlainSides).
 #include <array>
@@ -104,6 +105,13 @@ struct ObstacleParams {
   bool plain_one_sided = true;               // a face with one side found reaches as far as its top outline
   bool plain_outline_faces = true;           // a plain face receding out of view grows from a part found at
                                              // its far end along its top outline (offset linear along it)
+  // A long face receding in depth (a wall along the road, a vehicle's side) with too little
+  // texture for the loop's growth comes out as parts at different offsets along it.
+  bool join_receding_parts = true;
+  double receding_max_gap_widths = 4.0;      // widest gap between two parts, in widths of the wider part
+  int receding_min_offset_step_px = 2;       // parts nearer in offset than this are one offset's (plain faces)
+  double receding_min_lateral_m = 1.0;       // the face's plane passes the camera at least this far to the side
+                                             // (half a vehicle's width): steeper lines join separate objects
   bool join_across_nearer = true;            // two parts at one offset, with a nearer obstacle between them hiding
                                              // most of the gap (a vehicle behind a pedestrian), are one obstacle
   // Person-sized clusters below min_peak_matches / min_cluster_features: a person 25-35 m away
@@ -175,6 +183,14 @@ struct ObstacleParams {
     v.field("plain_max_width_m", plain_max_width_m, 0.0, 1000.0, "metres", "widest plain gap joined");
     v.field("plain_outline_faces", plain_outline_faces, 0, 1, "",
             "grow a part along the top outline of a plain face receding out of view");
+    v.field("join_receding_parts", join_receding_parts, 0, 1, "",
+            "join parts of a face receding in depth whose gap matches the offsets of the line through theirs");
+    v.field("receding_max_gap_widths", receding_max_gap_widths, 0.0, 100.0, "",
+            "widest gap between two receding parts, in widths of the wider one");
+    v.field("receding_min_offset_step_px", receding_min_offset_step_px, 1, 100, "pixels",
+            "smallest offset difference between two receding parts");
+    v.field("receding_min_lateral_m", receding_min_lateral_m, 0.0, 100.0, "metres",
+            "nearest the plane of two receding parts may pass the camera sideways");
     v.field("join_across_nearer", join_across_nearer, 0, 1, "",
             "join two parts at one offset whose gap a nearer obstacle mostly hides");
     v.field("plain_height_tolerance", plain_height_tolerance, 0.0, 10.0, "",
@@ -233,6 +249,14 @@ class ObstacleExtractor {
   // measured (ground.source kHough). Returns the number of joins.
   int joinPlainFaces(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
                      std::vector<ObstacleCluster>& obstacles, double baseline_m);
+
+  // Joins parts of one face receding in depth (ObstacleParams::join_receding_parts): two
+  // obstacles side by side at different offsets, of one height in metres, are one face when the
+  // features between them match at the offsets of the straight line through theirs (the offset
+  // of a vertical plane is linear along the image row) or its top outline runs between them at
+  // those offsets. Only on frames whose ground line was measured. Returns the number of joins.
+  int joinRecedingParts(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
+                        std::vector<ObstacleCluster>& obstacles, double baseline_m);
 
   // Drops the obstacles that the trims above left with fewer matched pixels than the loop
   // accepts for any cluster (the smaller of min_cluster_features and weak_cluster_features):
