@@ -1401,8 +1401,9 @@ int ObstacleExtractor::joinRecedingParts(const cv::Mat& left, const cv::Mat& rig
     // centres. The face's top and bottom rows run straight from one part's side to the other's.
     const double xa = a.box.x + 0.5 * (a.box.width - 1), xb = b.box.x + 0.5 * (b.box.width - 1);
     // A plane X = a Z + c (camera frame) shows offset d = B (x - x_vanishing) / c: the line's
-    // slope says where the plane passes the camera. A face passing within a few metres of the
-    // vehicle is no face; two separate objects side by side make such steep lines.
+    // slope says where the plane passes the camera. A face passing nearer than
+    // receding_min_lateral_m would touch the vehicle; two separate objects side by side make such
+    // steep lines.
     if (baseline_m * (xb - xa) / std::abs(db - da) < params_.receding_min_lateral_m) return -1;
     const int ta = a.box.y, tb = b.box.y;
     const int ba = a.box.y + a.box.height - 1, bb = b.box.y + b.box.height - 1;

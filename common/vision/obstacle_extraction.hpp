@@ -184,7 +184,8 @@ struct ObstacleParams {
     v.field("plain_outline_faces", plain_outline_faces, 0, 1, "",
             "grow a part along the top outline of a plain face receding out of view");
     v.field("join_receding_parts", join_receding_parts, 0, 1, "",
-            "join parts of a face receding in depth whose gap matches the offsets of the line through theirs");
+            "join parts of a face receding in depth whose top outline runs between them at the offsets of the "
+            "line through theirs");
     v.field("receding_max_gap_widths", receding_max_gap_widths, 0.0, 100.0, "",
             "widest gap between two receding parts, in widths of the wider one");
     v.field("receding_min_offset_step_px", receding_min_offset_step_px, 1, 100, "pixels",
@@ -252,9 +253,10 @@ class ObstacleExtractor {
 
   // Joins parts of one face receding in depth (ObstacleParams::join_receding_parts): two
   // obstacles side by side at different offsets, of one height in metres, are one face when the
-  // features between them match at the offsets of the straight line through theirs (the offset
-  // of a vertical plane is linear along the image row) or its top outline runs between them at
-  // those offsets. Only on frames whose ground line was measured. Returns the number of joins.
+  // straight line through their offsets (the offset of a vertical plane is linear along the image
+  // row) is a plane passing the camera at least receding_min_lateral_m to the side, and the top
+  // outline between them matches those offsets. Only on frames whose ground line was measured.
+  // Returns the number of joins.
   int joinRecedingParts(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
                         std::vector<ObstacleCluster>& obstacles, double baseline_m);
 
