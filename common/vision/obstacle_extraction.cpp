@@ -1337,12 +1337,9 @@ void ObstacleExtractor::narrowTo(ObstacleCluster& o, int x0, int x1, cv::Mat& la
 
 void ObstacleExtractor::foldInto(std::size_t& i, const cv::Rect& reach, int d_lo, int d_hi, cv::Mat& labels,
                                  std::vector<ObstacleCluster>& obstacles) {
-  const ObstacleCluster& a = obstacles[i];
-  ObstacleCluster joined = a;
+  ObstacleCluster joined = obstacles[i];
   joined.box |= reach;
-  LabelMap into = unchangedLabels();  // old label -> the old label it ends up under
-  std::vector<ObstacleCluster>& kept = kept_;
-  kept.clear();
+  folded_.assign(obstacles.size(), 0);
   for (std::size_t j = 0; j < obstacles.size(); ++j) {
     const ObstacleCluster& b = obstacles[j];
     if (j != i && b.min_offset_px <= d_hi && b.max_offset_px >= d_lo &&
@@ -1351,16 +1348,27 @@ void ObstacleExtractor::foldInto(std::size_t& i, const cv::Rect& reach, int d_lo
       joined.min_offset_px = std::min(joined.min_offset_px, b.min_offset_px);
       joined.max_offset_px = std::max(joined.max_offset_px, b.max_offset_px);
       joined.feature_count += b.feature_count;
-      into[static_cast<std::size_t>(b.label)] = static_cast<std::uint8_t>(a.label);
-    } else {
-      kept.push_back(b);
+      folded_[j] = 1;
     }
+  }
+  replaceFolded(i, joined, labels, obstacles);
+}
+
+void ObstacleExtractor::replaceFolded(std::size_t& i, const ObstacleCluster& joined, cv::Mat& labels,
+                                      std::vector<ObstacleCluster>& obstacles) {
+  const int a_label = obstacles[i].label;
+  LabelMap into = unchangedLabels();  // old label -> the old label it ends up under
+  std::vector<ObstacleCluster>& kept = kept_;
+  kept.clear();
+  for (std::size_t j = 0; j < obstacles.size(); ++j) {
+    if (folded_[j]) into[static_cast<std::size_t>(obstacles[j].label)] = static_cast<std::uint8_t>(a_label);
+    else kept.push_back(obstacles[j]);
   }
   // Renumber: the obstacles left keep their order, labels follow.
   LabelMap renumbered = into;
   for (std::size_t n = 0; n < kept.size(); ++n) {
     const int label = kLabelFirstObstacle + static_cast<int>(n);
-    if (kept[n].label == a.label) {
+    if (kept[n].label == a_label) {
       kept[n] = joined;
       i = n;
     }
@@ -1449,27 +1457,18 @@ int ObstacleExtractor::joinRecedingParts(const cv::Mat& left, const cv::Mat& rig
         if (i == j || gapEvidence(obstacles[i], obstacles[j], false) < 0) continue;
         // b joins a: the gap's matched features take a's label, b's pixels too, and the
         // obstacles after b move up one label.
-        ObstacleCluster& a = obstacles[i];
-        const ObstacleCluster b = obstacles[j];
+        const ObstacleCluster& a = obstacles[i];
+        const ObstacleCluster& b = obstacles[j];
         const int gap_matches = gapEvidence(a, b, true);
-        a.box |= b.box;
-        a.min_offset_px = std::min({a.min_offset_px, b.min_offset_px, a.offset_px, b.offset_px});
-        a.max_offset_px = std::max({a.max_offset_px, b.max_offset_px, a.offset_px, b.offset_px});
-        if (b.feature_count > a.feature_count) a.offset_px = b.offset_px;  // the larger part's offset
-        a.feature_count += b.feature_count + gap_matches;
-        LabelMap renumbered = unchangedLabels();
-        std::vector<ObstacleCluster> kept;
-        kept.reserve(obstacles.size() - 1);
-        for (std::size_t k = 0; k < obstacles.size(); ++k) {
-          if (k == j) continue;
-          ObstacleCluster o = obstacles[k];
-          o.label = kLabelFirstObstacle + static_cast<int>(kept.size());
-          renumbered[static_cast<std::size_t>(obstacles[k].label)] = static_cast<std::uint8_t>(o.label);
-          kept.push_back(o);
-        }
-        renumbered[static_cast<std::size_t>(b.label)] = renumbered[static_cast<std::size_t>(a.label)];
-        relabel(labels, renumbered);
-        obstacles = std::move(kept);
+        ObstacleCluster joined = a;
+        joined.box |= b.box;
+        joined.min_offset_px = std::min({a.min_offset_px, b.min_offset_px, a.offset_px, b.offset_px});
+        joined.max_offset_px = std::max({a.max_offset_px, b.max_offset_px, a.offset_px, b.offset_px});
+        if (b.feature_count > a.feature_count) joined.offset_px = b.offset_px;  // the larger part's offset
+        joined.feature_count += b.feature_count + gap_matches;
+        folded_.assign(obstacles.size(), 0);
+        folded_[j] = 1;
+        replaceFolded(i, joined, labels, obstacles);
         ++joins;
         again = true;
       }

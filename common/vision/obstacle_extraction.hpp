@@ -372,7 +372,8 @@ class ObstacleExtractor {
   std::vector<std::uint8_t> band_present_, band_matched_;  // cells: per column of a band of cell rows
   std::vector<int> touched_cells_;  // cells evaluated this iteration (reset before the next)
   std::vector<int> flood_;   // cells still to visit while growing a cluster
-  std::vector<ObstacleCluster> kept_;  // joinPlainFaces: the obstacles left after a join
+  std::vector<ObstacleCluster> kept_;  // joins: the obstacles left after a join
+  std::vector<std::uint8_t> folded_;   // joins: per obstacle, whether it goes into the joined one
   // joinPlainFaces: a column of a face receding in depth between two parts.
   struct FaceColumn {
     int x = 0, top = 0, bottom = 0, d0 = 0, d1 = 0;  // column, outlines, offsets matched
@@ -386,6 +387,11 @@ class ObstacleExtractor {
   // [d_lo, d_hi]; the others are renumbered with their labels, and i follows obstacle i.
   void foldInto(std::size_t& i, const cv::Rect& reach, int d_lo, int d_hi, cv::Mat& labels,
                 std::vector<ObstacleCluster>& obstacles);
+  // Obstacle i becomes `joined`, and the obstacles marked in folded_ go into it (their pixels take
+  // its label); the others keep their order and are renumbered with their labels, and i follows
+  // obstacle i.
+  void replaceFolded(std::size_t& i, const ObstacleCluster& joined, cv::Mat& labels,
+                     std::vector<ObstacleCluster>& obstacles);
   // Obstacle o keeps columns [x0, x1] of its box; its pixels outside become unassigned.
   static void narrowTo(ObstacleCluster& o, int x0, int x1, cv::Mat& labels);
 };
