@@ -1501,7 +1501,7 @@ int ObstacleExtractor::dropRemnants(cv::Mat& labels, std::vector<ObstacleCluster
 
 int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
                                       std::vector<ObstacleCluster>& obstacles, const GroundProfile* ground) const {
-  if (!params_.trim_plain_sides) return 0;
+  if (!params_.trim_plain_sides && !params_.trim_foot_skirt) return 0;
   if (left.type() != CV_8UC1 || labels.size() != left.size() || labels.type() != CV_8UC1)
     throw InputError("obstacles: feature and label images must be mono8 of the same size");
   const int cols = left.cols;
@@ -1527,8 +1527,32 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
     }
     return false;
   };
+  // Does column x hold pixels of obstacle o at its foot, and above it none that pins the offset?
+  // Ground texture at the foot matches at the obstacle's offset, and the ground's residue there
+  // joins the obstacle as a skirt reaching sideways; a horizontal streak of it higher up matches
+  // at any offset and pins nothing.
+  auto skirtOnly = [&](const ObstacleCluster& o, int x) {
+    int foot = 0;
+    for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
+      if (labels.ptr<std::uint8_t>(y)[x] != o.label) continue;
+      if (atFoot(o, y, x)) ++foot;
+      else if (pinsOffset(left.ptr<std::uint8_t>(y), x, cols, tol)) return false;
+    }
+    return foot > 0;
+  };
   int trimmed = 0;
   for (ObstacleCluster& o : obstacles) {
+    // Only obstacles at one offset: a face receding in depth has another foot in every column.
+    if (params_.trim_foot_skirt && ground && o.max_offset_px - o.min_offset_px <= 2 * params_.offset_tolerance_px) {
+      int a = o.box.x, b = o.box.x + o.box.width - 1;
+      while (a < b && skirtOnly(o, a)) ++a;
+      while (b > a && skirtOnly(o, b)) --b;
+      if (b - a + 1 >= params_.min_width_px && (a != o.box.x || b != o.box.x + o.box.width - 1)) {
+        trimmed += o.box.width - (b - a + 1);
+        narrowTo(o, a, b, labels);
+      }
+    }
+    if (!params_.trim_plain_sides) continue;
     int x0 = o.box.x, x1 = o.box.x + o.box.width - 1;
     const int reach = params_.plain_side_reach_px;
     while (x0 < std::min(x1, o.box.x + reach) && !pins(o, x0)) ++x0;

@@ -95,6 +95,7 @@ struct ObstacleParams {
   int plain_side_reach_px = 3;     // ... up to this many per side: the features' dilation (2) plus the Sobel's 1
   double plain_side_contact_px = 2.0;  // rows whose ground offset is within this of the obstacle's (its foot: the
                                        // ground there matches at its offset too) pin nothing (negative: they do)
+  bool trim_foot_skirt = true;     // side columns holding the obstacle's pixels at its foot only are trimmed
   bool join_plain_faces = true;
   double plain_max_feature_fraction = 0.05;  // share of the gap's inner pixels that are features pinning an
                                              // offset (not along a horizontal edge) up to which it is plain;
@@ -174,6 +175,8 @@ struct ObstacleParams {
     v.field("plain_side_contact_px", plain_side_contact_px, -1.0, 100.0, "pixels",
             "rows whose ground offset is within this of the obstacle's (its foot) do not pin a side column "
             "(negative: they do)");
+    v.field("trim_foot_skirt", trim_foot_skirt, 0, 1, "",
+            "trim side columns whose pixels of the obstacle all lie at its foot (ground residue beside it)");
     v.field("join_plain_faces", join_plain_faces, 0, 1, "", "join the two sides of a plain face");
     v.field("plain_max_feature_fraction", plain_max_feature_fraction, 0.0, 1.0, "",
             "share of the gap that is features pinning an offset (not horizontal edges; one side only: "
@@ -240,7 +243,10 @@ class ObstacleExtractor {
   // the left feature image differ by more than grey_tolerance; elsewhere a match holds at any
   // offset (the plain surround that the dilated feature mask reaches beside an outline).
   // `left` is the whole left feature image. With `ground`, the rows at an obstacle's foot
-  // (plain_side_contact_px) pin nothing. Returns the number of columns trimmed.
+  // (plain_side_contact_px) pin nothing. Before that, with `ground`, an obstacle at one offset
+  // (within twice offset_tolerance_px) loses the side columns holding its pixels at its foot and
+  // none above it that pins the offset (trim_foot_skirt: the ground's residue beside the foot),
+  // as far as they reach. Returns the number of columns trimmed.
   int trimPlainSides(const cv::Mat& left, cv::Mat& labels, std::vector<ObstacleCluster>& obstacles,
                      const GroundProfile* ground = nullptr) const;
 

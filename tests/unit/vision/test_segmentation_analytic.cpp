@@ -303,6 +303,59 @@ TEST(ObstacleSides, GroundTextureAtTheFootPinsNothing) {
   EXPECT_EQ(trim(at_foot_too, &ground, box), 0);
 }
 
+// The ground's residue at an obstacle's foot: the textured pole of PlainSurroundOfAThinPoleIsTrimmed
+// on a ground whose offset reaches the pole's on its last rows, where the ground texture matched
+// at the pole's offset and joined the cluster as a skirt over 20 columns to its right. Higher up,
+// a plain horizontal streak across the image (matching at any offset, it pins none) joined it
+// too. With the ground profile the skirt is trimmed back to the pole; a skirt column with
+// a pixel above the foot that pins the offset stops the trim; without the profile, or with the
+// trim off, the skirt stays.
+TEST(ObstacleSides, GroundResidueAtTheFootIsTrimmed) {
+  PoleFeatures p = poleFeatures(-1, 0);  // pole [25, 30], rows 5-34, texture everywhere
+  for (int y = 31; y < 35; ++y)
+    for (int x = 31; x <= 50; ++x) p.labels.at<std::uint8_t>(y, x) = kLabelFirstObstacle;
+  for (int x = 0; x < p.features.cols; ++x) p.features.at<std::uint8_t>(20, x) = 90;  // the streak: one grey
+  for (int x = 31; x <= 50; ++x) p.labels.at<std::uint8_t>(20, x) = kLabelFirstObstacle;
+  p.cluster.box = cv::Rect(25, 5, 26, 30);
+  GroundProfile ground;
+  ground.source = GroundSource::kHough;
+  ground.horizon_row = 0;
+  ground.background_offset = 1.0f;
+  ground.offset_per_row.resize(static_cast<std::size_t>(p.features.rows));
+  for (int y = 0; y < p.features.rows; ++y)  // 0.5 px per row, 20 on the pole's last row (34)
+    ground.offset_per_row[static_cast<std::size_t>(y)] = 20.0f - 0.5f * static_cast<float>(34 - y);
+  const float contact = static_cast<float>(ObstacleParams{}.plain_side_contact_px);
+  ASSERT_GE(ground.offset_per_row[31], 20.0f - contact);  // the skirt's rows are at the foot ...
+  ASSERT_LT(ground.offset_per_row[20], 20.0f - contact);  // ... the streak's row is not
+
+  auto trim = [&](const ObstacleParams& params, const GroundProfile* g, const cv::Mat& features, cv::Rect& box) {
+    cv::Mat labels = p.labels.clone();
+    std::vector<ObstacleCluster> obstacles{p.cluster};
+    const int trimmed = ObstacleExtractor(params).trimPlainSides(features, labels, obstacles, g);
+    box = obstacles[0].box;
+    for (int y = 0; y < labels.rows; ++y)  // the trimmed columns' pixels are no longer the obstacle's
+      for (int x = box.x + box.width; x < labels.cols; ++x)
+        EXPECT_NE(labels.at<std::uint8_t>(y, x), kLabelFirstObstacle) << "row " << y << " column " << x;
+    return trimmed;
+  };
+  cv::Rect box;
+  EXPECT_EQ(trim(ObstacleParams{}, &ground, p.features, box), 20);
+  EXPECT_EQ(box, cv::Rect(25, 5, 6, 30));
+  EXPECT_EQ(trim(ObstacleParams{}, nullptr, p.features, box), 0);
+  EXPECT_EQ(box, p.cluster.box);
+  ObstacleParams off;
+  off.trim_foot_skirt = false;
+  trim(off, &ground, p.features, box);
+  EXPECT_GT(box.width, 20);
+  // Texture in the streak's row at columns 39 and 41: columns 38, 40 and 42 hold a pixel there
+  // that pins the offset, and the skirt is trimmed from the right down to column 42.
+  cv::Mat pinned = p.features.clone();
+  pinned.at<std::uint8_t>(20, 39) = 10;
+  pinned.at<std::uint8_t>(20, 41) = 200;
+  EXPECT_EQ(trim(ObstacleParams{}, &ground, pinned, box), 8);
+  EXPECT_EQ(box, cv::Rect(25, 5, 18, 30));
+}
+
 // Segments `scene` with `p`; the last obstacle with IoU >= 0.5 against `truth`, or null.
 const ObstacleCluster* segmentAndFind(const test::AnalyticScene& scene, const SegmenterParams& p,
                                       const cv::Rect& truth, SegmentationResult& r) {
