@@ -1,5 +1,7 @@
 #include "vision/obstacle_extraction.hpp"
 
+#include "vision/window_sad.hpp"
+
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -1497,6 +1499,72 @@ int ObstacleExtractor::dropRemnants(cv::Mat& labels, std::vector<ObstacleCluster
   obstacles.resize(kept);
   relabel(labels, renumbered);
   return dropped;
+}
+
+int ObstacleExtractor::trimForeignSides(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels,
+                                        std::vector<ObstacleCluster>& obstacles, double focal_baseline) const {
+  if (!params_.trim_foreign_sides || !(focal_baseline > 0.0)) return 0;
+  const int cols = left.cols;
+  const int tol = params_.grey_tolerance;
+  const int reach = params_.foreign_search_px;
+  int trimmed = 0;
+  for (ObstacleCluster& o : obstacles) {
+    if (o.max_offset_px - o.min_offset_px > 2 * params_.offset_tolerance_px) continue;
+    const int d = o.offset_px;
+    if (d <= 0) continue;
+    // Offset steps of at least foreign_min_step_px and foreign_min_depth_m in depth (Z = fB / d,
+    // so a step of dZ is about d^2 dZ / fB pixels): a near object's own parts (arms, a
+    // vehicle's nose) lie a few pixels apart.
+    const int near = std::max(params_.foreign_min_step_px,
+                              static_cast<int>(std::ceil(static_cast<double>(d) * d * params_.foreign_min_depth_m /
+                                                         focal_baseline)));
+    if (near > reach) continue;
+    // Votes of column x's pixels of o that pin an offset: for the offset among d - reach .. d + reach
+    // whose 5-pixel window matches best, near d (within near - 1) or away from it.
+    auto votes = [&](int x, int& own, int& other) {
+      own = other = 0;
+      if (x - d - reach - kSadHalfWidth < 0 || x + kSadHalfWidth >= cols) return;
+      for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
+        if (labels.ptr<std::uint8_t>(y)[x] != o.label) continue;
+        const std::uint8_t* l = left.ptr<std::uint8_t>(y);
+        if (!pinsOffset(l, x, cols, tol)) continue;
+        const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+        int best = std::numeric_limits<int>::max(), at = d;
+        for (int e = std::max(0, d - reach); e <= d + reach; ++e) {
+          const int sad = sadAt(l, r, x, e);
+          if (sad < best) {
+            best = sad;
+            at = e;
+          }
+        }
+        (std::abs(at - d) >= near ? other : own) += 1;
+      }
+    };
+    // From a side inwards up to the first column whose pinning pixels vote for d, when a column
+    // before it voted for another offset (the columns between, with no vote, go with them:
+    // a plain stretch or a horizontal edge between the two objects).
+    auto walk = [&](int from, int to, int dir) {
+      bool seen_other = false;
+      for (int x = from; x != to + dir; x += dir) {
+        int own = 0, other = 0;
+        votes(x, own, other);
+        if (own >= other && own > 0) return seen_other ? x : from;
+        seen_other = seen_other || other > own;
+      }
+      return from;
+    };
+    const int x0 = o.box.x, x1 = o.box.x + o.box.width - 1;
+    const int a = walk(x0, x1, +1);
+    const int b = walk(x1, a, -1);
+    // Most of the box voting for other offsets: the obstacle is not a neighbour's remnant (a
+    // vehicle's side receding from its nose), keep it whole.
+    if (b - a + 1 < params_.min_width_px || (a == x0 && b == x1) ||
+        static_cast<double>(b - a + 1) < (1.0 - params_.foreign_max_share) * o.box.width)
+      continue;
+    trimmed += o.box.width - (b - a + 1);
+    narrowTo(o, a, b, labels);
+  }
+  return trimmed;
 }
 
 int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,

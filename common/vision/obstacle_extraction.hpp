@@ -95,6 +95,13 @@ struct ObstacleParams {
   int plain_side_reach_px = 3;     // ... up to this many per side: the features' dilation (2) plus the Sobel's 1
   double plain_side_contact_px = 2.0;  // rows whose ground offset is within this of the obstacle's (its foot: the
                                        // ground there matches at its offset too) pin nothing (negative: they do)
+  // Two objects side by side at close offsets (1-3 px) come out as one cluster at the nearer's
+  // offset tolerance: the other's outline matches within it.
+  bool trim_foreign_sides = true;  // side columns whose pinning pixels match best at another offset are trimmed
+  int foreign_search_px = 4;       // offsets searched around the obstacle's, each side
+  int foreign_min_step_px = 2;     // a pixel matching best this far from the obstacle's offset or farther ...
+  double foreign_min_depth_m = 1.0;  // ... and this far in depth is another object's
+  double foreign_max_share = 0.7;    // largest share of a box's width trimmed
   bool trim_foot_skirt = true;     // side columns holding the obstacle's pixels at its foot only are trimmed
   bool join_plain_faces = true;
   double plain_max_feature_fraction = 0.05;  // share of the gap's inner pixels that are features pinning an
@@ -175,6 +182,13 @@ struct ObstacleParams {
     v.field("plain_side_contact_px", plain_side_contact_px, -1.0, 100.0, "pixels",
             "rows whose ground offset is within this of the obstacle's (its foot) do not pin a side column "
             "(negative: they do)");
+    v.field("trim_foreign_sides", trim_foreign_sides, 0, 1, "",
+            "trim side columns whose pixels pinning an offset match best at another offset");
+    v.field("foreign_search_px", foreign_search_px, 1, 64, "pixels", "offsets searched each side of the obstacle's");
+    v.field("foreign_min_step_px", foreign_min_step_px, 1, 64, "pixels",
+            "distance from the obstacle's offset at which a best match is another object's ...");
+    v.field("foreign_min_depth_m", foreign_min_depth_m, 0.0, 100.0, "metres", "... and in depth");
+    v.field("foreign_max_share", foreign_max_share, 0.0, 1.0, "", "largest share of a box's width trimmed");
     v.field("trim_foot_skirt", trim_foot_skirt, 0, 1, "",
             "trim side columns whose pixels of the obstacle all lie at its foot (ground residue beside it)");
     v.field("join_plain_faces", join_plain_faces, 0, 1, "", "join the two sides of a plain face");
@@ -237,6 +251,15 @@ class ObstacleExtractor {
   // Returns the number of columns trimmed.
   int trimOccludedLeft(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
                        std::vector<ObstacleCluster>& obstacles) const;
+
+  // Trims each obstacle's side columns (one offset only, within twice offset_tolerance_px) whose
+  // pixels that pin an offset mostly match best, among the obstacle's offset +-foreign_search_px,
+  // away from it by foreign_min_step_px and foreign_min_depth_m or more: a neighbouring object at
+  // a close offset. From each side inwards, up to the first column voting for the obstacle's
+  // offset, and at most foreign_max_share of the box. focal_baseline: f * B of the rig (pixels
+  // times metres). Returns the number of columns trimmed.
+  int trimForeignSides(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels,
+                       std::vector<ObstacleCluster>& obstacles, double focal_baseline) const;
 
   // Trims each obstacle's side columns that hold no pixel pinning the offset
   // (ObstacleParams::trim_plain_sides): a pixel pins it when its left and right neighbours in

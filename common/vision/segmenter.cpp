@@ -132,6 +132,8 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
   obstacles_.joinPlainFaces(left_features, right_features, out.ground, out.labels, out.obstacles,
                             rig.baseline_m);
   obstacles_.joinRecedingParts(left_features, right_features, out.ground, out.labels, out.obstacles, rig.baseline_m);
+  obstacles_.trimForeignSides(left_features, right_features, out.labels, out.obstacles,
+                              rig.focal_px * rig.baseline_m);
   obstacles_.trimPlainSides(left_features, out.labels, out.obstacles, &out.ground);
   obstacles_.dropRemnants(out.labels, out.obstacles);
   out.timing_ms["obstacles"] += msSince(t_after);

@@ -356,6 +356,60 @@ TEST(ObstacleSides, GroundResidueAtTheFootIsTrimmed) {
   EXPECT_EQ(box, cv::Rect(25, 5, 18, 30));
 }
 
+// Two textured objects side by side: A in columns [50, 60) at offset 20 and B in [60, 75) at 17,
+// one cluster at 20 over both (B's outline matched within the offset tolerance). On a rig with
+// f * B = 389 (KITTI's), 3 px at offset 20 is 2.4 m in depth: B's columns, whose pixels match best
+// at 17, are trimmed back to A's. The step asked for near objects (offset 40: 3 px are 0.4 m, an
+// arm or a vehicle's nose), more than foreign_max_share of the box, or the rule off: none.
+TEST(ObstacleSides, ANeighbourAtACloseOffsetIsTrimmed) {
+  cv::Mat left = cv::Mat::zeros(40, 100, CV_8UC1), right = cv::Mat::zeros(40, 100, CV_8UC1);
+  cv::Mat labels = cv::Mat::zeros(40, 100, CV_8UC1);
+  cv::RNG rng(7);
+  for (int y = 5; y < 35; ++y)
+    for (int x = 50; x < 75; ++x) {
+      const auto g = static_cast<std::uint8_t>(rng.uniform(30, 230));
+      left.at<std::uint8_t>(y, x) = g;
+      right.at<std::uint8_t>(y, x - (x < 60 ? 20 : 17)) = g;
+      labels.at<std::uint8_t>(y, x) = kLabelFirstObstacle;
+    }
+  ObstacleCluster cluster;
+  cluster.offset_px = cluster.min_offset_px = cluster.max_offset_px = 20;
+  cluster.box = cv::Rect(50, 5, 25, 30);
+  cluster.feature_count = 30 * 25;
+  auto trim = [&](const ObstacleParams& params, double fb, cv::Rect& box) {
+    cv::Mat l = labels.clone();
+    std::vector<ObstacleCluster> obstacles{cluster};
+    const int trimmed = ObstacleExtractor(params).trimForeignSides(left, right, l, obstacles, fb);
+    box = obstacles[0].box;
+    for (int y = 0; y < l.rows; ++y) {
+      for (int x = 0; x < l.cols; ++x) {
+        if (l.at<std::uint8_t>(y, x) == kLabelFirstObstacle) {
+          EXPECT_TRUE(box.contains({x, y})) << x << "," << y;
+        }
+      }
+    }
+    EXPECT_EQ(obstacles[0].feature_count, 30 * box.width);
+    return trimmed;
+  };
+  cv::Rect box;
+  // A's last column may go with B: the 5-pixel windows there straddle the two.
+  const int trimmed = trim(ObstacleParams{}, 389.0, box);
+  EXPECT_GE(trimmed, 15);
+  EXPECT_LE(trimmed, 16);
+  EXPECT_EQ(box.x, 50);
+  EXPECT_EQ(box.x + box.width, 75 - trimmed);
+  EXPECT_EQ(box.y, 5);
+  EXPECT_EQ(box.height, 30);
+  EXPECT_EQ(trim(ObstacleParams{}, 389.0 / 4.0, box), 0);  // the same pixels 40 px away, in depth
+  EXPECT_EQ(box, cluster.box);
+  ObstacleParams half;
+  half.foreign_max_share = 0.5;  // B is 0.6 of the box
+  EXPECT_EQ(trim(half, 389.0, box), 0);
+  ObstacleParams off;
+  off.trim_foreign_sides = false;
+  EXPECT_EQ(trim(off, 389.0, box), 0);
+}
+
 // Segments `scene` with `p`; the last obstacle with IoU >= 0.5 against `truth`, or null.
 const ObstacleCluster* segmentAndFind(const test::AnalyticScene& scene, const SegmenterParams& p,
                                       const cv::Rect& truth, SegmentationResult& r) {
