@@ -265,6 +265,19 @@ TEST(ObstacleSides, TexturedSurroundAndWidePlainSidesAreKept) {
   EXPECT_EQ(ObstacleExtractor(off).trimPlainSides(plain.features, plain.labels, obstacles), 0);
 }
 
+// A measured ground line under poleFeatures' pole: 0.5 px per row, the pole's offset (20) on its
+// last row (34); the background at offset 1 above row 0.
+GroundProfile groundUnderThePole(int rows) {
+  GroundProfile ground;
+  ground.source = GroundSource::kHough;
+  ground.horizon_row = 0;
+  ground.background_offset = 1.0f;
+  ground.offset_per_row.resize(static_cast<std::size_t>(rows));
+  for (int y = 0; y < rows; ++y)
+    ground.offset_per_row[static_cast<std::size_t>(y)] = 20.0f - 0.5f * static_cast<float>(34 - y);
+  return ground;
+}
+
 // The pole of PlainSurroundOfAThinPoleIsTrimmed standing on textured ground: on its last rows
 // the ground's offset reaches the pole's (20), and the ground texture there pins every column
 // of the surround. Those rows say nothing about where the pole ends: with the ground profile
@@ -274,13 +287,7 @@ TEST(ObstacleSides, GroundTextureAtTheFootPinsNothing) {
   constexpr std::uint8_t kTexture[3] = {40, 120, 200};
   for (int y = 31; y < 35; ++y)
     for (int x = 0; x < p.features.cols; ++x) p.features.at<std::uint8_t>(y, x) = kTexture[(x + y) % 3];
-  GroundProfile ground;
-  ground.source = GroundSource::kHough;
-  ground.horizon_row = 0;
-  ground.background_offset = 1.0f;
-  ground.offset_per_row.resize(static_cast<std::size_t>(p.features.rows));
-  for (int y = 0; y < p.features.rows; ++y)  // 0.5 px per row, 20 on the pole's last row (34)
-    ground.offset_per_row[static_cast<std::size_t>(y)] = 20.0f - 0.5f * static_cast<float>(34 - y);
+  const GroundProfile ground = groundUnderThePole(p.features.rows);
   const float contact = static_cast<float>(ObstacleParams{}.plain_side_contact_px);
   ASSERT_GE(ground.offset_per_row[31], 20.0f - contact);  // the textured rows are at the foot ...
   ASSERT_LT(ground.offset_per_row[29], 20.0f - contact);  // ... and the pole's rows above are not
@@ -317,13 +324,7 @@ TEST(ObstacleSides, GroundResidueAtTheFootIsTrimmed) {
   for (int x = 0; x < p.features.cols; ++x) p.features.at<std::uint8_t>(20, x) = 90;  // the streak: one grey
   for (int x = 31; x <= 50; ++x) p.labels.at<std::uint8_t>(20, x) = kLabelFirstObstacle;
   p.cluster.box = cv::Rect(25, 5, 26, 30);
-  GroundProfile ground;
-  ground.source = GroundSource::kHough;
-  ground.horizon_row = 0;
-  ground.background_offset = 1.0f;
-  ground.offset_per_row.resize(static_cast<std::size_t>(p.features.rows));
-  for (int y = 0; y < p.features.rows; ++y)  // 0.5 px per row, 20 on the pole's last row (34)
-    ground.offset_per_row[static_cast<std::size_t>(y)] = 20.0f - 0.5f * static_cast<float>(34 - y);
+  const GroundProfile ground = groundUnderThePole(p.features.rows);
   const float contact = static_cast<float>(ObstacleParams{}.plain_side_contact_px);
   ASSERT_GE(ground.offset_per_row[31], 20.0f - contact);  // the skirt's rows are at the foot ...
   ASSERT_LT(ground.offset_per_row[20], 20.0f - contact);  // ... the streak's row is not
