@@ -1501,6 +1501,68 @@ int ObstacleExtractor::dropRemnants(cv::Mat& labels, std::vector<ObstacleCluster
   return dropped;
 }
 
+int ObstacleExtractor::extendStrides(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
+                                     const cv::Mat& labels, std::vector<ObstacleCluster>& obstacles,
+                                     double baseline_m) const {
+  if (!params_.extend_strides || !(baseline_m > 0.0)) return 0;
+  const int cols = left.cols;
+  constexpr int kNone = std::numeric_limits<int>::max();
+  int added = 0;
+  for (ObstacleCluster& o : obstacles) {
+    const int d = o.offset_px;
+    if (d <= 0) continue;
+    const double height_m = static_cast<double>(o.box.height) * baseline_m / d;
+    if (height_m < params_.weak_min_height_m || height_m > params_.weak_max_height_m) continue;
+    const int y0 = std::max(0, o.box.y), y1 = std::min(left.rows - 1, o.box.y + o.box.height - 1);
+    // Does the ground or background feature at (y, x) stand at d?
+    auto stands = [&](int y, int x) {
+      const std::uint8_t label = labels.ptr<std::uint8_t>(y)[x];
+      if ((label != kLabelGround && label != kLabelBackground) || x < kSadHalfWidth || x + kSadHalfWidth >= cols)
+        return false;
+      const float line = ground.lineOffsetAt(y, static_cast<float>(x));
+      if (!std::isfinite(line) ||
+          std::fabs(line - static_cast<float>(d)) <= static_cast<float>(params_.plain_side_contact_px))
+        return false;
+      const std::uint8_t* l = left.ptr<std::uint8_t>(y);
+      const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+      const int at_offset = lowestSadAround(l, r, x, d, kNone);
+      if (at_offset > params_.stride_max_cost) return false;
+      const int li = static_cast<int>(std::lround(line));
+      const int at_line = lowestSadAround(l, r, x, li, kNone);
+      if (at_line == kNone || at_offset + params_.stride_cost_margin >= at_line) return false;
+      for (int e = std::max(0, std::min(li, d) - 8); e <= std::max(li, d) + 8; ++e) {
+        if (std::abs(e - d) <= 2 || x - e - kSadHalfWidth < 0) continue;
+        if (sadAt(l, r, x, e) < at_offset + params_.stride_unique_margin) return false;
+      }
+      return true;
+    };
+    auto standing = [&](int x) {
+      int n = 0;
+      for (int y = y0; y <= y1 && n < params_.stride_min_pixels; ++y) n += stands(y, x);
+      return n >= params_.stride_min_pixels;
+    };
+    const int reach = static_cast<int>(params_.stride_max_growth * o.box.height);
+    auto walk = [&](int from, int dir) {
+      int end = from;
+      for (int x = from + dir, gap = 0; x >= 0 && x < cols && std::abs(x - from) <= reach; x += dir) {
+        if (standing(x)) {
+          end = x;
+          gap = 0;
+        } else if (++gap > params_.stride_gap_px) {
+          break;
+        }
+      }
+      return std::abs(end - from) <= params_.plain_side_reach_px ? from : end;
+    };
+    const int x0 = walk(o.box.x, -1);
+    const int x1 = walk(o.box.x + o.box.width - 1, +1);
+    added += o.box.x - x0 + x1 - (o.box.x + o.box.width - 1);
+    o.box.width = x1 - x0 + 1;
+    o.box.x = x0;
+  }
+  return added;
+}
+
 int ObstacleExtractor::trimForeignSides(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels,
                                         std::vector<ObstacleCluster>& obstacles, double focal_baseline) const {
   if (!params_.trim_foreign_sides || !(focal_baseline > 0.0)) return 0;

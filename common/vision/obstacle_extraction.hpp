@@ -122,6 +122,15 @@ struct ObstacleParams {
                                              // (half a vehicle's width): steeper lines join separate objects
   bool join_across_nearer = true;            // two parts at one offset, with a nearer obstacle between them hiding
                                              // most of the gap (a vehicle behind a pedestrian), are one obstacle
+  // A walking person's legs and arms, thin and often matched by the ground or the background
+  // at their line's offset too, fall outside the box the histograms give (the torso).
+  bool extend_strides = true;        // widen person-tall boxes over side columns whose pixels stand at their offset
+  double stride_max_growth = 0.25;   // most columns added per side, as a fraction of the box's height
+  int stride_min_pixels = 3;         // standing pixels a column needs
+  int stride_gap_px = 2;             // columns without crossed
+  int stride_max_cost = 40;          // 5-pixel window SAD at the offset (+-1) up to which a pixel stands at it ...
+  int stride_cost_margin = 60;       // ... when lower by this than at its row's line offset (+-1) ...
+  int stride_unique_margin = 20;     // ... and by this than at any other offset near the two
   // Person-sized clusters below min_peak_matches / min_cluster_features: a person 25-35 m away
   // shows ~30-45 rows of a narrow outline. Such weaker clusters are kept when their size in
   // metres (from d* and the rig's baseline) is a person's. 0 turns this off.
@@ -209,6 +218,16 @@ struct ObstacleParams {
             "smallest offset difference between two receding parts");
     v.field("receding_min_lateral_m", receding_min_lateral_m, 0.0, 100.0, "metres",
             "nearest the plane of two receding parts may pass the camera sideways");
+    v.field("extend_strides", extend_strides, 0, 1, "",
+            "widen person-tall boxes over side columns of ground or background features standing at their offset");
+    v.field("stride_max_growth", stride_max_growth, 0.0, 10.0, "", "most columns added per side, fraction of the height");
+    v.field("stride_min_pixels", stride_min_pixels, 1, 100000, "pixels", "standing pixels a side column needs");
+    v.field("stride_gap_px", stride_gap_px, 0, 1000, "pixels", "columns without standing pixels crossed");
+    v.field("stride_max_cost", stride_max_cost, 0, 5 * 255, "grey levels", "largest window SAD at the offset");
+    v.field("stride_cost_margin", stride_cost_margin, 0, 5 * 255, "grey levels",
+            "how much lower than at the line's offset the SAD at the obstacle's must be");
+    v.field("stride_unique_margin", stride_unique_margin, 0, 5 * 255, "grey levels",
+            "how much lower than at any other offset near the two the SAD at the obstacle's must be");
     v.field("join_across_nearer", join_across_nearer, 0, 1, "",
             "join two parts at one offset whose gap a nearer obstacle mostly hides");
     v.field("plain_height_tolerance", plain_height_tolerance, 0.0, 10.0, "",
@@ -294,6 +313,17 @@ class ObstacleExtractor {
   // their pixels return to unassigned and the later obstacles are renumbered.
   // Returns the number dropped.
   int dropRemnants(cv::Mat& labels, std::vector<ObstacleCluster>& obstacles);
+
+  // Widens the box (not the pixels) of each obstacle a person's height (weak_min_height_m ..
+  // weak_max_height_m, from its offset and baseline_m) over the side columns holding at least
+  // stride_min_pixels ground- or background-labelled features that stand at its offset: their
+  // 5-pixel window matches the right image at it (+-1, SAD <= stride_max_cost), better by
+  // stride_cost_margin than at the line's offset of their row and by stride_unique_margin than at
+  // any other offset from 8 below the smaller of the two to 8 above the larger. Rows at the foot
+  // (plain_side_contact_px) cannot tell and are left out; a growth of plain_side_reach_px columns
+  // or fewer is the outline's own and is not made. Returns the number of columns added.
+  int extendStrides(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, const cv::Mat& labels,
+                    std::vector<ObstacleCluster>& obstacles, double baseline_m) const;
 
   const ObstacleParams& params() const { return params_; }
 
