@@ -126,7 +126,7 @@ struct ObstacleParams {
   // at their line's offset too, fall outside the box the histograms give (the torso).
   bool extend_strides = true;        // widen person-tall boxes over side columns whose pixels stand at their offset
   double stride_max_growth = 0.25;   // most columns added per side, as a fraction of the box's height
-  int stride_min_pixels = 3;         // standing pixels a column needs
+  int stride_min_pixels = 2;         // standing pixels a column needs
   int stride_gap_px = 2;             // columns without crossed
   int stride_max_cost = 40;          // 5-pixel window SAD at the offset (+-1) up to which a pixel stands at it ...
   int stride_cost_margin = 60;       // ... when lower by this than at its row's line offset (+-1) ...
