@@ -362,17 +362,11 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
   const GroundProfile& ground = segmentation.ground;
   auto groundLegMatch = [&](int iy, int ix) {
     if (cp.extent_ground_margin <= 0 || ix < kSadHalfWidth || ix + kSadHalfWidth >= left.cols) return false;
-    const float line = ground.lineOffsetAt(iy, static_cast<float>(ix));
-    if (!std::isfinite(line) ||
-        std::fabs(line - static_cast<float>(cluster.offset_px)) <= static_cast<float>(cp.extent_ground_clearance_px))
-      return false;
-    const std::uint8_t* l = left.ptr<std::uint8_t>(iy);
-    const std::uint8_t* r = right.ptr<std::uint8_t>(iy);
     constexpr int kNone = std::numeric_limits<int>::max();
-    const int at_offset = lowestSadAround(l, r, ix, cluster.offset_px, kNone);
-    if (at_offset > cp.extent_ground_max_cost) return false;
-    const int at_line = lowestSadAround(l, r, ix, static_cast<int>(std::lround(line)), kNone);
-    return at_line != kNone && at_offset + cp.extent_ground_margin < at_line;
+    return standingCost(left.ptr<std::uint8_t>(iy), right.ptr<std::uint8_t>(iy), ix, cluster.offset_px,
+                        ground.lineOffsetAt(iy, static_cast<float>(ix)),
+                        static_cast<float>(cp.extent_ground_clearance_px), cp.extent_ground_max_cost,
+                        cp.extent_ground_margin, kNone) != kNone;
   };
   auto extentMatch = [&](int y, int x) {  // region coordinates
     const int iy = roi.y + y, ix = roi.x + x;

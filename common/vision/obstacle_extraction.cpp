@@ -1520,16 +1520,12 @@ int ObstacleExtractor::extendStrides(const cv::Mat& left, const cv::Mat& right, 
       if ((label != kLabelGround && label != kLabelBackground) || x < kSadHalfWidth || x + kSadHalfWidth >= cols)
         return false;
       const float line = ground.lineOffsetAt(y, static_cast<float>(x));
-      if (!std::isfinite(line) ||
-          std::fabs(line - static_cast<float>(d)) <= static_cast<float>(params_.plain_side_contact_px))
-        return false;
       const std::uint8_t* l = left.ptr<std::uint8_t>(y);
       const std::uint8_t* r = right.ptr<std::uint8_t>(y);
-      const int at_offset = lowestSadAround(l, r, x, d, kNone);
-      if (at_offset > params_.stride_max_cost) return false;
+      const int at_offset = standingCost(l, r, x, d, line, static_cast<float>(params_.plain_side_contact_px),
+                                         params_.stride_max_cost, params_.stride_cost_margin, kNone);
+      if (at_offset == kNone) return false;
       const int li = static_cast<int>(std::lround(line));
-      const int at_line = lowestSadAround(l, r, x, li, kNone);
-      if (at_line == kNone || at_offset + params_.stride_cost_margin >= at_line) return false;
       for (int e = std::max(0, std::min(li, d) - 8); e <= std::max(li, d) + 8; ++e) {
         if (std::abs(e - d) <= 2 || x - e - kSadHalfWidth < 0) continue;
         if (sadAt(l, r, x, e) < at_offset + params_.stride_unique_margin) return false;
@@ -1571,7 +1567,7 @@ int ObstacleExtractor::trimForeignSides(const cv::Mat& left, const cv::Mat& righ
   const int reach = params_.foreign_search_px;
   int trimmed = 0;
   for (ObstacleCluster& o : obstacles) {
-    if (o.max_offset_px - o.min_offset_px > 2 * params_.offset_tolerance_px) continue;
+    if (!atOneOffset(o)) continue;
     const int d = o.offset_px;
     if (d <= 0) continue;
     // Offset steps of at least foreign_min_step_px and foreign_min_depth_m in depth (Z = fB / d,
@@ -1673,7 +1669,7 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
   int trimmed = 0;
   for (ObstacleCluster& o : obstacles) {
     // Only obstacles at one offset: a face receding in depth has another foot in every column.
-    if (params_.trim_foot_skirt && ground && o.max_offset_px - o.min_offset_px <= 2 * params_.offset_tolerance_px) {
+    if (params_.trim_foot_skirt && ground && atOneOffset(o)) {
       int a = o.box.x, b = o.box.x + o.box.width - 1;
       while (a < b && skirtOnly(o, a)) ++a;
       while (b > a && skirtOnly(o, b)) --b;

@@ -327,6 +327,12 @@ class ObstacleExtractor {
 
   const ObstacleParams& params() const { return params_; }
 
+  // An obstacle at one offset: its range within the offset tolerance either side (a face
+  // receding in depth spans more).
+  bool atOneOffset(const ObstacleCluster& o) const {
+    return o.max_offset_px - o.min_offset_px <= 2 * params_.offset_tolerance_px;
+  }
+
  private:
   struct Extent {
     int lo = 0;

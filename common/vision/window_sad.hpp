@@ -3,6 +3,7 @@
 // row: the local stereo test of the far people's stage (vision/standing_people.hpp) and of
 // the localization's leg pixels (vision/human_localizer.hpp).
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
 
@@ -27,6 +28,19 @@ inline int lowestSadAround(const std::uint8_t* left, const std::uint8_t* right, 
   for (int e = std::max(0, centre - 1); e <= centre + 1; ++e)
     if (x - e - kSadHalfWidth >= 0) best = std::min(best, sadAt(left, right, x, e));
   return best;
+}
+
+// The lowest SAD at `offset` +-1 of the pixel at column x when it stands there rather than at
+// `line`, its row's ground/background offset: the line is finite and more than `clearance`
+// from `offset` (nearer, the two cannot be told apart), that SAD is at most `max_cost`, and it
+// is lower by `margin` than the lowest at the line's offset +-1. `none` otherwise.
+inline int standingCost(const std::uint8_t* left, const std::uint8_t* right, int x, int offset, float line,
+                        float clearance, int max_cost, int margin, int none) {
+  if (!std::isfinite(line) || std::fabs(line - static_cast<float>(offset)) <= clearance) return none;
+  const int at_offset = lowestSadAround(left, right, x, offset, none);
+  if (at_offset > max_cost) return none;
+  const int at_line = lowestSadAround(left, right, x, static_cast<int>(std::lround(line)), none);
+  return at_line != none && at_offset + margin < at_line ? at_offset : none;
 }
 
 }  // namespace sg
