@@ -1507,6 +1507,10 @@ int ObstacleExtractor::extendStrides(const cv::Mat& left, const cv::Mat& right, 
   if (!params_.extend_strides || !(baseline_m > 0.0)) return 0;
   const int cols = left.cols;
   constexpr int kNone = std::numeric_limits<int>::max();
+  std::array<int, 256> offset_of_label{};
+  offset_of_label.fill(-1);
+  for (const ObstacleCluster& o : obstacles)
+    if (o.label >= 0 && o.label < 256) offset_of_label[static_cast<std::size_t>(o.label)] = o.offset_px;
   int added = 0;
   for (ObstacleCluster& o : obstacles) {
     const int d = o.offset_px;
@@ -1517,7 +1521,9 @@ int ObstacleExtractor::extendStrides(const cv::Mat& left, const cv::Mat& right, 
     // Does the ground or background feature at (y, x) stand at d?
     auto stands = [&](int y, int x) {
       const std::uint8_t label = labels.ptr<std::uint8_t>(y)[x];
-      if ((label != kLabelGround && label != kLabelBackground) || x < kSadHalfWidth || x + kSadHalfWidth >= cols)
+      const bool candidate = label == kLabelGround || label == kLabelBackground ||
+                             (label == kLabelUnassigned && params_.stride_unassigned);
+      if (!candidate || x < kSadHalfWidth || x + kSadHalfWidth >= cols)
         return false;
       const float line = ground.lineOffsetAt(y, static_cast<float>(x));
       const std::uint8_t* l = left.ptr<std::uint8_t>(y);
@@ -1537,10 +1543,21 @@ int ObstacleExtractor::extendStrides(const cv::Mat& left, const cv::Mat& right, 
       for (int y = y0; y <= y1 && n < params_.stride_min_pixels; ++y) n += stands(y, x);
       return n >= params_.stride_min_pixels;
     };
+    // Does column x hold, in the box's rows, a pixel of another obstacle at another offset?
+    auto holdsAnother = [&](int x) {
+      for (int y = y0; y <= y1; ++y) {
+        const std::uint8_t label = labels.ptr<std::uint8_t>(y)[x];
+        if (label < kLabelFirstObstacle || label == o.label) continue;
+        const int e = offset_of_label[static_cast<std::size_t>(label)];
+        if (e >= 0 && std::abs(e - d) > params_.offset_tolerance_px) return true;
+      }
+      return false;
+    };
     const int reach = static_cast<int>(params_.stride_max_growth * o.box.height);
     auto walk = [&](int from, int dir) {
       int end = from;
       for (int x = from + dir, gap = 0; x >= 0 && x < cols && std::abs(x - from) <= reach; x += dir) {
+        if (params_.stride_stop_at_others && holdsAnother(x)) break;
         if (standing(x)) {
           end = x;
           gap = 0;

@@ -131,6 +131,9 @@ struct ObstacleParams {
   int stride_max_cost = 40;          // 5-pixel window SAD at the offset (+-1) up to which a pixel stands at it ...
   int stride_cost_margin = 60;       // ... when lower by this than at its row's line offset (+-1) ...
   int stride_unique_margin = 20;     // ... and by this than at any other offset near the two
+  bool stride_unassigned = true;     // unassigned features stand too (a leg's slanted outline matching the
+                                     // right image's only within the window, not at the obstacle cells)
+  bool stride_stop_at_others = true; // a column holding another obstacle's pixels at another offset ends the widening
   // Person-sized clusters below min_peak_matches / min_cluster_features: a person 25-35 m away
   // shows ~30-45 rows of a narrow outline. Such weaker clusters are kept when their size in
   // metres (from d* and the rig's baseline) is a person's. 0 turns this off.
@@ -228,6 +231,9 @@ struct ObstacleParams {
             "how much lower than at the line's offset the SAD at the obstacle's must be");
     v.field("stride_unique_margin", stride_unique_margin, 0, 5 * 255, "grey levels",
             "how much lower than at any other offset near the two the SAD at the obstacle's must be");
+    v.field("stride_unassigned", stride_unassigned, 0, 1, "", "unassigned features may stand at the offset too");
+    v.field("stride_stop_at_others", stride_stop_at_others, 0, 1, "",
+            "stop widening at a column holding pixels of an obstacle outside the offset tolerance");
     v.field("join_across_nearer", join_across_nearer, 0, 1, "",
             "join two parts at one offset whose gap a nearer obstacle mostly hides");
     v.field("plain_height_tolerance", plain_height_tolerance, 0.0, 10.0, "",
@@ -316,12 +322,15 @@ class ObstacleExtractor {
 
   // Widens the box (not the pixels) of each obstacle a person's height (weak_min_height_m ..
   // weak_max_height_m, from its offset and baseline_m) over the side columns holding at least
-  // stride_min_pixels ground- or background-labelled features that stand at its offset: their
-  // 5-pixel window matches the right image at it (+-1, SAD <= stride_max_cost), better by
-  // stride_cost_margin than at the line's offset of their row and by stride_unique_margin than at
-  // any other offset from 8 below the smaller of the two to 8 above the larger. Rows at the foot
-  // (plain_side_contact_px) cannot tell and are left out; a growth of plain_side_reach_px columns
-  // or fewer is the outline's own and is not made. Returns the number of columns added.
+  // stride_min_pixels ground- or background-labelled features (and unassigned ones with
+  // stride_unassigned) that stand at its offset: their 5-pixel window matches the right image at
+  // it (+-1, SAD <= stride_max_cost), better by stride_cost_margin than at the line's offset of
+  // their row and by stride_unique_margin than at any other offset from 8 below the smaller of the
+  // two to 8 above the larger. Rows at the foot (plain_side_contact_px) cannot tell and are left
+  // out; a growth of plain_side_reach_px columns or fewer is the outline's own and is not made.
+  // With stride_stop_at_others the widening ends before a column holding pixels of another
+  // obstacle whose offset lies outside offset_tolerance_px of this one's (another object; a
+  // piece of the same person at its offset does not stop it). Returns the number of columns added.
   int extendStrides(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, const cv::Mat& labels,
                     std::vector<ObstacleCluster>& obstacles, double baseline_m) const;
 

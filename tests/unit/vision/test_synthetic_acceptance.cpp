@@ -756,6 +756,35 @@ TEST(SyntheticObstacles, StridingPeopleAreBoxedWithTheirLegs) {
   EXPECT_TRUE(objectFound(segment(pair), pair, post));
 }
 
+// A trailing leg's slanted outline matches the right image within the 5-pixel window but misses
+// the obstacle cells: its features stay unassigned, and the box reaches over them only when they
+// may stand too (seeds 117 and 179). Widening stops at another object: on seed 576 a long obstacle
+// 2 px nearer lies beside a walker at 22 m, and crossing into it halves the walker's IoU.
+TEST(SyntheticObstacles, StridesCountUnassignedLegsAndStopAtAnotherObject) {
+  auto personAt = [](const SceneTruth& t, int x) {
+    for (std::size_t k = 0; k < t.objects.size(); ++k)
+      if (t.objects[k].type == "Pedestrian" && std::abs(labelBox(t.objects[k]).x - x) <= 2) return k;
+    return t.objects.size();
+  };
+  SegmenterParams assigned_only;
+  assigned_only.obstacles.stride_unassigned = false;
+  for (const auto& [seed, x] : {std::pair{117, 285}, std::pair{179, 338}}) {
+    const StereoPair pair =
+        renderSyntheticScene(randomSceneParams(static_cast<std::uint64_t>(seed)), static_cast<std::uint64_t>(seed));
+    const std::size_t person = personAt(*pair.truth, x);
+    ASSERT_LT(person, pair.truth->objects.size()) << "seed " << seed;
+    EXPECT_TRUE(objectFound(segment(pair), pair, person)) << "seed " << seed;
+    EXPECT_FALSE(objectFound(segment(pair, assigned_only), pair, person)) << "seed " << seed;
+  }
+  SegmenterParams through;
+  through.obstacles.stride_stop_at_others = false;
+  const StereoPair pair = renderSyntheticScene(randomSceneParams(576), 576);
+  const std::size_t person = personAt(*pair.truth, 827);
+  ASSERT_LT(person, pair.truth->objects.size());
+  EXPECT_TRUE(objectFound(segment(pair), pair, person));
+  EXPECT_FALSE(objectFound(segment(pair, through), pair, person));
+}
+
 // Long walls whose near end is out of view (they run from 40 m to beside the camera): only a
 // part near the far end shows texture. Grown along the top outline, one obstacle covers the wall.
 StereoPair wallOutOfViewScene(int k) {
