@@ -1642,6 +1642,87 @@ int ObstacleExtractor::trimForeignSides(const cv::Mat& left, const cv::Mat& righ
   return trimmed;
 }
 
+bool ObstacleExtractor::atFoot(const GroundProfile& ground, const ObstacleCluster& o, int y, int x) const {
+  const float contact = static_cast<float>(params_.plain_side_contact_px);
+  if (contact < 0.0f || y < ground.horizon_row || y >= static_cast<int>(ground.offset_per_row.size())) return false;
+  const float g = ground.groundOffsetAt(y, static_cast<float>(x));
+  return std::isfinite(g) && std::fabs(g - static_cast<float>(o.offset_px)) <= contact;
+}
+
+int ObstacleExtractor::splitGroundLinks(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
+                                        cv::Mat& labels, std::vector<ObstacleCluster>& obstacles,
+                                        double baseline_m) {
+  if (!params_.split_ground_links || !(baseline_m > 0.0)) return 0;
+  const int cols = left.cols;
+  const int min_link = params_.plain_side_reach_px + 1;
+  int removed = 0;
+  std::vector<int>& above = pixels_above_foot_;
+  above.reserve(static_cast<std::size_t>(cols));  // no box is wider than the image
+  for (ObstacleCluster& o : obstacles) {
+    if (o.offset_px <= 0 || !atOneOffset(o)) continue;
+    // The obstacle's pixels above its foot, per column.
+    above.assign(static_cast<std::size_t>(o.box.width), 0);
+    for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
+      const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+      for (int x = o.box.x; x < o.box.x + o.box.width; ++x)
+        if (lab[x] == o.label && !atFoot(ground, o, y, x)) ++above[static_cast<std::size_t>(x - o.box.x)];
+    }
+    // Parts between links (runs of at least min_link columns without such pixels); the one with
+    // the most pixels is the candidate.
+    int best_a = -1, best_b = -1, best_n = 0, links = 0;
+    for (int k = 0; k < o.box.width;) {
+      if (above[static_cast<std::size_t>(k)] == 0) {
+        int e = k;
+        while (e < o.box.width && above[static_cast<std::size_t>(e)] == 0) ++e;
+        if (e - k >= min_link) ++links;
+        k = e;
+        continue;
+      }
+      // A part: columns with pixels, crossing runs shorter than min_link.
+      int a = k, b = k, n = 0;
+      for (int e = k, gap = 0; e < o.box.width && gap < min_link; ++e) {
+        const int c = above[static_cast<std::size_t>(e)];
+        if (c == 0) {
+          ++gap;
+          continue;
+        }
+        gap = 0;
+        b = e;
+        n += c;
+      }
+      if (n > best_n) {
+        best_a = a;
+        best_b = b;
+        best_n = n;
+      }
+      k = b + 1;
+    }
+    if (links == 0 || best_a < 0) continue;
+    const double metres_per_px = baseline_m / o.offset_px;
+    const double width_m = (best_b - best_a + 1) * metres_per_px, height_m = o.box.height * metres_per_px;
+    if (width_m < params_.link_min_part_width_m || width_m > params_.weak_max_width_m ||
+        height_m < params_.weak_min_height_m || height_m > params_.weak_max_height_m ||
+        best_b - best_a + 1 < params_.min_width_px)
+      continue;
+    // A plain face between two outlines: its upper outline runs across the links at the offset.
+    const int d0 = std::max(0, o.offset_px - params_.offset_tolerance_px), d1 = o.offset_px + params_.offset_tolerance_px;
+    int link_columns = 0, outlined = 0;
+    for (int k = 0; k < o.box.width; ++k) {
+      if (above[static_cast<std::size_t>(k)] != 0) continue;
+      ++link_columns;
+      bool hit = false;
+      for (int y = std::max(0, o.box.y - 2); y <= std::min(left.rows - 1, o.box.y + 2) && !hit; ++y)
+        hit = matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), o.box.x + k, d0, d1,
+                      params_.grey_tolerance, params_.match_half_window_px, cols);
+      outlined += hit;
+    }
+    if (outlined >= params_.plain_min_outline_fraction * link_columns) continue;
+    removed += o.box.width - (best_b - best_a + 1);
+    narrowTo(o, o.box.x + best_a, o.box.x + best_b, labels);
+  }
+  return removed;
+}
+
 int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
                                       std::vector<ObstacleCluster>& obstacles, const GroundProfile* ground) const {
   if (!params_.trim_plain_sides && !params_.trim_foot_skirt) return 0;
@@ -1651,14 +1732,7 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
   const int tol = params_.grey_tolerance;
   // At the obstacle's foot the ground's offset is the obstacle's own: ground texture there matches
   // at that offset as well as the obstacle does, and pins nothing.
-  const float contact = static_cast<float>(params_.plain_side_contact_px);
-  auto atFoot = [&](const ObstacleCluster& o, int y, int x) {
-    if (!ground || contact < 0.0f || y < ground->horizon_row ||
-        y >= static_cast<int>(ground->offset_per_row.size()))
-      return false;
-    const float g = ground->groundOffsetAt(y, static_cast<float>(x));
-    return std::isfinite(g) && std::fabs(g - static_cast<float>(o.offset_px)) <= contact;
-  };
+  auto atFoot = [&](const ObstacleCluster& o, int y, int x) { return ground && this->atFoot(*ground, o, y, x); };
   // Does column x hold a pixel of obstacle o whose horizontal neighbours differ by more than tol
   // (away from its foot)?
   auto pins = [&](const ObstacleCluster& o, int x) {

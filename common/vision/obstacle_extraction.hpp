@@ -103,6 +103,10 @@ struct ObstacleParams {
   double foreign_min_depth_m = 1.0;  // ... and this far in depth is another object's
   double foreign_max_share = 0.7;    // largest share of a box's width trimmed
   bool trim_foot_skirt = true;     // side columns holding the obstacle's pixels at its foot only are trimmed
+  // A person joined to something at the same offset by a link along the ground (the ground's
+  // residue at their common foot row, a shadow's edge) keeps the person-sized part only.
+  bool split_ground_links = true;
+  double link_min_part_width_m = 0.2;  // narrowest part kept as a person's (seen from the side, the chest's depth)
   bool join_plain_faces = true;
   double plain_max_feature_fraction = 0.05;  // share of the gap's inner pixels that are features pinning an
                                              // offset (not along a horizontal edge) up to which it is plain;
@@ -203,6 +207,10 @@ struct ObstacleParams {
     v.field("foreign_max_share", foreign_max_share, 0.0, 1.0, "", "largest share of a box's width trimmed");
     v.field("trim_foot_skirt", trim_foot_skirt, 0, 1, "",
             "trim side columns whose pixels of the obstacle all lie at its foot (ground residue beside it)");
+    v.field("split_ground_links", split_ground_links, 0, 1, "",
+            "keep the person-sized part of an obstacle joined to another by pixels at its foot only");
+    v.field("link_min_part_width_m", link_min_part_width_m, 0.0, 10.0, "metres",
+            "narrowest part kept as a person's");
     v.field("join_plain_faces", join_plain_faces, 0, 1, "", "join the two sides of a plain face");
     v.field("plain_max_feature_fraction", plain_max_feature_fraction, 0.0, 1.0, "",
             "share of the gap that is features pinning an offset (not horizontal edges; one side only: "
@@ -298,6 +306,17 @@ class ObstacleExtractor {
   int trimPlainSides(const cv::Mat& left, cv::Mat& labels, std::vector<ObstacleCluster>& obstacles,
                      const GroundProfile* ground = nullptr) const;
 
+  // Splits obstacles at one offset joined along the ground (ObstacleParams::split_ground_links):
+  // a run of more than plain_side_reach_px columns holding none of the obstacle's pixels above
+  // its foot (plain_side_contact_px) parts it. When a part lies between such runs or the box's
+  // sides, has the most pixels above the foot, a person's height and a width from
+  // link_min_part_width_m to weak_max_width_m (from its offset and baseline_m), and the runs are
+  // not a plain face's inside (fewer than plain_min_outline_fraction of their columns matching at
+  // the offset along the box's top: a vehicle's or a box's upper outline), the obstacle keeps
+  // that part; the rest of its pixels become unassigned. Returns the number of columns removed.
+  int splitGroundLinks(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
+                       std::vector<ObstacleCluster>& obstacles, double baseline_m);
+
   // Joins the two sides of plain faces (ObstacleParams::join_plain_faces): `left` is the whole
   // left feature image (before any removal), `labels` as left by compute(); joined obstacles
   // are relabelled and the later ones renumbered. Only on frames whose ground line was
@@ -341,6 +360,9 @@ class ObstacleExtractor {
   bool atOneOffset(const ObstacleCluster& o) const {
     return o.max_offset_px - o.min_offset_px <= 2 * params_.offset_tolerance_px;
   }
+
+  // Is (y, x) at obstacle o's foot: the ground's offset there within plain_side_contact_px of o's?
+  bool atFoot(const GroundProfile& ground, const ObstacleCluster& o, int y, int x) const;
 
  private:
   struct Extent {
@@ -457,6 +479,7 @@ class ObstacleExtractor {
   };
   std::vector<FaceColumn> face_columns_;
   std::vector<std::uint8_t> hidden_columns_;  // joinPlainFaces: gap columns behind a nearer obstacle
+  std::vector<int> pixels_above_foot_;        // splitGroundLinks: an obstacle's pixels above its foot per column
   // Obstacle i takes in `reach` and the obstacles mostly inside it whose offsets meet
   // [d_lo, d_hi]; the others are renumbered with their labels, and i follows obstacle i.
   void foldInto(std::size_t& i, const cv::Rect& reach, int d_lo, int d_hi, cv::Mat& labels,

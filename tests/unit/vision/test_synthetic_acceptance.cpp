@@ -785,6 +785,32 @@ TEST(SyntheticObstacles, StridesCountUnassignedLegsAndStopAtAnotherObject) {
   EXPECT_FALSE(objectFound(segment(pair, through), pair, person));
 }
 
+// Two people at one offset joined by the ground's residue along their common foot row (seed 336),
+// a person joined the same way to the feet of a nearer one (seed 580): the obstacle keeps the
+// person-sized part. Seed 4's car, a plain side between its two outlines whose upper outline
+// runs across the gap, is not split.
+TEST(SyntheticObstacles, PeopleJoinedAlongTheGroundAreSplit) {
+  auto objectAt = [](const SceneTruth& t, const char* type, int x) {
+    for (std::size_t k = 0; k < t.objects.size(); ++k)
+      if (t.objects[k].type == type && std::abs(labelBox(t.objects[k]).x - x) <= 2) return k;
+    return t.objects.size();
+  };
+  SegmenterParams joined;
+  joined.obstacles.split_ground_links = false;
+  for (const auto& [seed, x] : {std::pair{336, 654}, std::pair{580, 165}}) {
+    const StereoPair pair =
+        renderSyntheticScene(randomSceneParams(static_cast<std::uint64_t>(seed)), static_cast<std::uint64_t>(seed));
+    const std::size_t person = objectAt(*pair.truth, "Pedestrian", x);
+    ASSERT_LT(person, pair.truth->objects.size()) << "seed " << seed;
+    EXPECT_TRUE(objectFound(segment(pair), pair, person)) << "seed " << seed;
+    EXPECT_FALSE(objectFound(segment(pair, joined), pair, person)) << "seed " << seed;
+  }
+  const StereoPair pair = renderSyntheticScene(randomSceneParams(4), 4);
+  const std::size_t car = objectAt(*pair.truth, "Car", 587);
+  ASSERT_LT(car, pair.truth->objects.size());
+  EXPECT_TRUE(objectFound(segment(pair), pair, car));
+}
+
 // Long walls whose near end is out of view (they run from 40 m to beside the camera): only a
 // part near the far end shows texture. Grown along the top outline, one obstacle covers the wall.
 StereoPair wallOutOfViewScene(int k) {
