@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <initializer_list>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -40,6 +42,36 @@ bool objectFound(const SegmentationResult& r, const StereoPair& pair, std::size_
   for (const ObstacleCluster& c : r.obstacles)
     if (test::clusterFindsObject(c, labelBox(o), centre, surface)) return true;
   return false;
+}
+
+// The object of `type` whose label box starts within 2 columns of x (objects.size() if none).
+std::size_t objectNear(const SceneTruth& t, const char* type, int x) {
+  for (std::size_t k = 0; k < t.objects.size(); ++k)
+    if (t.objects[k].type == type && std::abs(labelBox(t.objects[k]).x - x) <= 2) return k;
+  return t.objects.size();
+}
+
+// The object of `type` near column x of random scene `seed` is found with the defaults.
+void expectFoundWithTheDefaults(const char* type, int seed, int x) {
+  const StereoPair pair =
+      renderSyntheticScene(randomSceneParams(static_cast<std::uint64_t>(seed)), static_cast<std::uint64_t>(seed));
+  const std::size_t k = objectNear(*pair.truth, type, x);
+  ASSERT_LT(k, pair.truth->objects.size()) << "seed " << seed << ": no " << type << " at column " << x;
+  EXPECT_TRUE(objectFound(segment(pair), pair, k)) << "seed " << seed;
+}
+
+// For each random scene (seed) the object of `type` near column x is found with the defaults and
+// not with `without` (the step under test turned off).
+void expectFoundOnlyWithTheStep(const SegmenterParams& without, const char* type,
+                                std::initializer_list<std::pair<int, int>> seeds_and_columns) {
+  for (const auto& [seed, x] : seeds_and_columns) {
+    const StereoPair pair =
+        renderSyntheticScene(randomSceneParams(static_cast<std::uint64_t>(seed)), static_cast<std::uint64_t>(seed));
+    const std::size_t k = objectNear(*pair.truth, type, x);
+    ASSERT_LT(k, pair.truth->objects.size()) << "seed " << seed << ": no " << type << " at column " << x;
+    EXPECT_TRUE(objectFound(segment(pair), pair, k)) << "seed " << seed;
+    EXPECT_FALSE(objectFound(segment(pair, without), pair, k)) << "seed " << seed;
+  }
 }
 
 // People at least min_distance_m away, and how many of them lie in a cluster of `with` and of
@@ -718,16 +750,9 @@ TEST(SyntheticObstacles, RecedingPartsOfAWallAreOneObstacle) {
     EXPECT_TRUE(objectFound(segment(pair), pair, wall)) << "seed " << seed;
     EXPECT_FALSE(objectFound(segment(pair, unjoined), pair, wall)) << "seed " << seed;
   }
-  const StereoPair pair = renderSyntheticScene(randomSceneParams(175), 175);
-  const SceneTruth& t = *pair.truth;
-  std::size_t person = t.objects.size();
-  for (std::size_t k = 0; k < t.objects.size(); ++k)
-    if (t.objects[k].type == "Pedestrian" && std::abs(labelBox(t.objects[k]).x - 458) <= 2) person = k;
-  ASSERT_LT(person, t.objects.size());
   SegmenterParams any_slope;
   any_slope.obstacles.receding_min_lateral_m = 0.0;
-  EXPECT_TRUE(objectFound(segment(pair), pair, person));
-  EXPECT_FALSE(objectFound(segment(pair, any_slope), pair, person));
+  expectFoundOnlyWithTheStep(any_slope, "Pedestrian", {{175, 458}});
 }
 
 // People in mid stride whose legs the removal gave the ground: the obstacle is their torso, half
@@ -735,25 +760,10 @@ TEST(SyntheticObstacles, RecedingPartsOfAWallAreOneObstacle) {
 // A thin post 3 m tall at 23 m (seed 150), whose surround matches at its offset uniquely enough
 // to widen a 7 px box past IoU 0.5, is not a person's height and keeps its box.
 TEST(SyntheticObstacles, StridingPeopleAreBoxedWithTheirLegs) {
-  auto objectNear = [](const SceneTruth& t, const char* type, int x) {
-    for (std::size_t k = 0; k < t.objects.size(); ++k)
-      if (t.objects[k].type == type && std::abs(labelBox(t.objects[k]).x - x) <= 2) return k;
-    return t.objects.size();
-  };
   SegmenterParams off;
   off.obstacles.extend_strides = false;
-  for (const auto& [seed, x] : {std::pair{22, 758}, std::pair{161, 1132}}) {
-    const StereoPair pair =
-        renderSyntheticScene(randomSceneParams(static_cast<std::uint64_t>(seed)), static_cast<std::uint64_t>(seed));
-    const std::size_t person = objectNear(*pair.truth, "Pedestrian", x);
-    ASSERT_LT(person, pair.truth->objects.size()) << "seed " << seed;
-    EXPECT_TRUE(objectFound(segment(pair), pair, person)) << "seed " << seed;
-    EXPECT_FALSE(objectFound(segment(pair, off), pair, person)) << "seed " << seed;
-  }
-  const StereoPair pair = renderSyntheticScene(randomSceneParams(150), 150);
-  const std::size_t post = objectNear(*pair.truth, "Misc", 891);
-  ASSERT_LT(post, pair.truth->objects.size());
-  EXPECT_TRUE(objectFound(segment(pair), pair, post));
+  expectFoundOnlyWithTheStep(off, "Pedestrian", {{22, 758}, {161, 1132}});
+  expectFoundWithTheDefaults("Misc", 150, 891);
 }
 
 // A trailing leg's slanted outline matches the right image within the 5-pixel window but misses
@@ -761,28 +771,12 @@ TEST(SyntheticObstacles, StridingPeopleAreBoxedWithTheirLegs) {
 // may stand too (seeds 117 and 179). Widening stops at another object: on seed 576 a long obstacle
 // 2 px nearer lies beside a walker at 22 m, and crossing into it halves the walker's IoU.
 TEST(SyntheticObstacles, StridesCountUnassignedLegsAndStopAtAnotherObject) {
-  auto personAt = [](const SceneTruth& t, int x) {
-    for (std::size_t k = 0; k < t.objects.size(); ++k)
-      if (t.objects[k].type == "Pedestrian" && std::abs(labelBox(t.objects[k]).x - x) <= 2) return k;
-    return t.objects.size();
-  };
   SegmenterParams assigned_only;
   assigned_only.obstacles.stride_unassigned = false;
-  for (const auto& [seed, x] : {std::pair{117, 285}, std::pair{179, 338}}) {
-    const StereoPair pair =
-        renderSyntheticScene(randomSceneParams(static_cast<std::uint64_t>(seed)), static_cast<std::uint64_t>(seed));
-    const std::size_t person = personAt(*pair.truth, x);
-    ASSERT_LT(person, pair.truth->objects.size()) << "seed " << seed;
-    EXPECT_TRUE(objectFound(segment(pair), pair, person)) << "seed " << seed;
-    EXPECT_FALSE(objectFound(segment(pair, assigned_only), pair, person)) << "seed " << seed;
-  }
+  expectFoundOnlyWithTheStep(assigned_only, "Pedestrian", {{117, 285}, {179, 338}});
   SegmenterParams through;
   through.obstacles.stride_stop_at_others = false;
-  const StereoPair pair = renderSyntheticScene(randomSceneParams(576), 576);
-  const std::size_t person = personAt(*pair.truth, 827);
-  ASSERT_LT(person, pair.truth->objects.size());
-  EXPECT_TRUE(objectFound(segment(pair), pair, person));
-  EXPECT_FALSE(objectFound(segment(pair, through), pair, person));
+  expectFoundOnlyWithTheStep(through, "Pedestrian", {{576, 827}});
 }
 
 // Two people at one offset joined by the ground's residue along their common foot row (seed 336),
@@ -790,25 +784,10 @@ TEST(SyntheticObstacles, StridesCountUnassignedLegsAndStopAtAnotherObject) {
 // person-sized part. Seed 4's car, a plain side between its two outlines whose upper outline
 // runs across the gap, is not split.
 TEST(SyntheticObstacles, PeopleJoinedAlongTheGroundAreSplit) {
-  auto objectAt = [](const SceneTruth& t, const char* type, int x) {
-    for (std::size_t k = 0; k < t.objects.size(); ++k)
-      if (t.objects[k].type == type && std::abs(labelBox(t.objects[k]).x - x) <= 2) return k;
-    return t.objects.size();
-  };
   SegmenterParams joined;
   joined.obstacles.split_ground_links = false;
-  for (const auto& [seed, x] : {std::pair{336, 654}, std::pair{580, 165}}) {
-    const StereoPair pair =
-        renderSyntheticScene(randomSceneParams(static_cast<std::uint64_t>(seed)), static_cast<std::uint64_t>(seed));
-    const std::size_t person = objectAt(*pair.truth, "Pedestrian", x);
-    ASSERT_LT(person, pair.truth->objects.size()) << "seed " << seed;
-    EXPECT_TRUE(objectFound(segment(pair), pair, person)) << "seed " << seed;
-    EXPECT_FALSE(objectFound(segment(pair, joined), pair, person)) << "seed " << seed;
-  }
-  const StereoPair pair = renderSyntheticScene(randomSceneParams(4), 4);
-  const std::size_t car = objectAt(*pair.truth, "Car", 587);
-  ASSERT_LT(car, pair.truth->objects.size());
-  EXPECT_TRUE(objectFound(segment(pair), pair, car));
+  expectFoundOnlyWithTheStep(joined, "Pedestrian", {{336, 654}, {580, 165}});
+  expectFoundWithTheDefaults("Car", 4, 587);
 }
 
 // Long walls whose near end is out of view (they run from 40 m to beside the camera): only a
