@@ -1642,6 +1642,14 @@ int ObstacleExtractor::trimForeignSides(const cv::Mat& left, const cv::Mat& righ
   return trimmed;
 }
 
+bool ObstacleExtractor::outlineAt(const cv::Mat& left, const cv::Mat& right, int top, int x, int d0, int d1) const {
+  for (int y = std::max(0, top - 2); y <= std::min(left.rows - 1, top + 2); ++y)
+    if (matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, d0, d1, params_.grey_tolerance,
+                params_.match_half_window_px, left.cols))
+      return true;
+  return false;
+}
+
 bool ObstacleExtractor::atFoot(const GroundProfile& ground, const ObstacleCluster& o, int y, int x) const {
   const float contact = static_cast<float>(params_.plain_side_contact_px);
   if (contact < 0.0f || y < ground.horizon_row || y >= static_cast<int>(ground.offset_per_row.size())) return false;
@@ -1710,11 +1718,7 @@ int ObstacleExtractor::splitGroundLinks(const cv::Mat& left, const cv::Mat& righ
     for (int k = 0; k < o.box.width; ++k) {
       if (above[static_cast<std::size_t>(k)] != 0) continue;
       ++link_columns;
-      bool hit = false;
-      for (int y = std::max(0, o.box.y - 2); y <= std::min(left.rows - 1, o.box.y + 2) && !hit; ++y)
-        hit = matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), o.box.x + k, d0, d1,
-                      params_.grey_tolerance, params_.match_half_window_px, cols);
-      outlined += hit;
+      outlined += outlineAt(left, right, o.box.y, o.box.x + k, d0, d1) ? 1 : 0;
     }
     if (outlined >= params_.plain_min_outline_fraction * link_columns) continue;
     removed += o.box.width - (best_b - best_a + 1);
@@ -1839,11 +1843,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       const int gap = std::abs(x - first);
       if (gap == 0) continue;
       if (pinning > params_.plain_max_feature_fraction * inner * gap) continue;
-      auto topHit = [&](int k) {
-        bool hit = false;
-        for (int y = std::max(0, a.box.y - 2); y <= std::min(left.rows - 1, a.box.y + 2) && !hit; ++y) hit = matches(y, k);
-        return hit;
-      };
+      auto topHit = [&](int k) { return outlineAt(left, right, a.box.y, k, d_lo, d_hi); };
       // Features (count, columns) in the `beyond` columns past the obstacle's near side, and past
       // column `far` on the other side when there is one (far >= 0).
       const int near_end = dir > 0 ? a.box.x - 1 : a.box.x + a.box.width;

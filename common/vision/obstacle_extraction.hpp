@@ -361,9 +361,6 @@ class ObstacleExtractor {
     return o.max_offset_px - o.min_offset_px <= 2 * params_.offset_tolerance_px;
   }
 
-  // Is (y, x) at obstacle o's foot: the ground's offset there within plain_side_contact_px of o's?
-  bool atFoot(const GroundProfile& ground, const ObstacleCluster& o, int y, int x) const;
-
  private:
   struct Extent {
     int lo = 0;
@@ -480,6 +477,11 @@ class ObstacleExtractor {
   std::vector<FaceColumn> face_columns_;
   std::vector<std::uint8_t> hidden_columns_;  // joinPlainFaces: gap columns behind a nearer obstacle
   std::vector<int> pixels_above_foot_;        // splitGroundLinks: an obstacle's pixels above its foot per column
+  // Does column x of the left feature image match the right at an offset in [d0, d1] on a row
+  // within 2 of `top`: a face's upper outline there (joinPlainFaces, splitGroundLinks)?
+  bool outlineAt(const cv::Mat& left, const cv::Mat& right, int top, int x, int d0, int d1) const;
+  // Is (y, x) at obstacle o's foot: the ground's offset there within plain_side_contact_px of o's?
+  bool atFoot(const GroundProfile& ground, const ObstacleCluster& o, int y, int x) const;
   // Obstacle i takes in `reach` and the obstacles mostly inside it whose offsets meet
   // [d_lo, d_hi]; the others are renumbered with their labels, and i follows obstacle i.
   void foldInto(std::size_t& i, const cv::Rect& reach, int d_lo, int d_hi, cv::Mat& labels,
