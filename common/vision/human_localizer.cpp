@@ -724,6 +724,24 @@ bool HumanLocalizer::insideStructure(const StereoRig& rig, const SegmentationRes
   return false;
 }
 
+void HumanLocalizer::widenInCluster(const StereoRig& rig, const SegmentationResult& segmentation,
+                                    HumanDetection& h) const {
+  if (!params_.candidates.widen_in_cluster) return;
+  for (const ObstacleCluster& c : segmentation.obstacles) {
+    if (c.label != h.cluster_label) continue;
+    if (c.offset_px <= 0) return;
+    const double width_m = static_cast<double>(c.box.width) * rig.baseline_m / static_cast<double>(c.offset_px);
+    if (width_m > params_.candidates.max_width_m) return;
+    const float left_side = h.box.x - static_cast<float>(c.box.x);
+    const float right_side = static_cast<float>(c.box.x + c.box.width) - (h.box.x + h.box.width);
+    const float growth = std::min(left_side, right_side);
+    if (growth <= 0.0f) return;
+    h.box.x -= growth;
+    h.box.width += 2.0f * growth;
+    return;
+  }
+}
+
 bool HumanLocalizer::validateCandidate(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& right,
                                        const StereoRig& rig, const SegmentationResult& segmentation, HumanDetection& h,
                                        bool reference) const {
@@ -803,6 +821,11 @@ bool HumanLocalizer::validateCandidate(BoxWorkspace& ws, const cv::Mat& left, co
   if (static_cast<double>(h.score) < params_.score.min_score) return false;
   if (static_cast<double>(h.score) < params_.filters.interior_min_score && insideStructure(rig, segmentation, h))
     return false;
+  // Step 6: the stride. The symmetric core frames the torso; a walking person's legs reach
+  // beyond it, and the obstacle stage's box of a person-wide cluster takes them in
+  // (ObstacleParams::extend_strides). Both sides grow alike, so the centre, the position and
+  // the score read above stay as they are.
+  widenInCluster(rig, segmentation, h);
   const cv::Rect image(0, 0, left.cols, left.rows);
   return (h.box & cv::Rect2f(image)).area() > 0.0f;
 }

@@ -55,6 +55,7 @@ struct CandidateParams {
   double extent_ground_clearance_px = 2.0;  // rows whose line offset is this near the cluster's cannot tell
   bool extent_blind_band = true;   // a box at the image's left edge may grow into the columns
                                    // the right camera cannot see at the cluster's offset
+  bool widen_in_cluster = true;    // a scored box inside a person-wide cluster grows towards its sides
 
   template <class V>
   void visit(V& v) {
@@ -90,6 +91,9 @@ struct CandidateParams {
     v.field("extent_blind_band", extent_blind_band, 0, 1, "",
             "a box touching the left band that the right camera cannot see at the cluster's offset grows into it "
             "on its edges alone (one-sided); unassigned features there count as the cluster's");
+    v.field("widen_in_cluster", widen_in_cluster, 0, 1, "",
+            "after scoring, a box inside a cluster no wider than max_width_m grows on both sides by the smaller of "
+            "its distances to the cluster's sides (a walking person's stride; the score and the centre stay)");
   }
 };
 
@@ -311,8 +315,12 @@ class HumanLocalizer {
   float shapeScore(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& labels, const cv::Rect2f& box) const;
   // True when box h lies in the middle of a cluster much wider than a person (filters.interior_*).
   bool insideStructure(const StereoRig& rig, const SegmentationResult& segmentation, const HumanDetection& h) const;
+  // A kept box inside a cluster no wider than the widest person (candidates.max_width_m at the
+  // cluster's offset) grows on both sides by the smaller of its distances to the cluster's
+  // sides (candidates.widen_in_cluster).
+  void widenInCluster(const StereoRig& rig, const SegmentationResult& segmentation, HumanDetection& h) const;
   // Steps 3-5 on candidate h (refined offset, ground contact, distance, shape
-  // score); false when it is dropped.
+  // score, the box widened in its cluster); false when it is dropped.
   bool validateCandidate(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,
                          const SegmentationResult& segmentation, HumanDetection& h, bool reference) const;
   void computeImpl(const cv::Mat& left, const cv::Mat& right, const StereoRig& rig,

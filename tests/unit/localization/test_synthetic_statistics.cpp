@@ -159,7 +159,12 @@ TEST(SyntheticStatistics, SideViewWithoutASymmetricCandidateStillGetsABox) {
 // (IoU 0.38 and 0.44 with their labels); from 0.18 m the narrower symmetric core wins and the
 // box frames them (IoU 0.66 and 0.51).
 TEST(SyntheticStatistics, NarrowestPersonBoxLetsTheSymmetricCoreWin) {
-  auto narrowest = [](double m) { return [m](DetectorParams& p) { p.localizer.candidates.min_width_m = m; }; };
+  auto narrowest = [](double m) {
+    return [m](DetectorParams& p) {
+      p.localizer.candidates.min_width_m = m;
+      p.localizer.candidates.widen_in_cluster = false;  // the box as the symmetry search frames it
+    };
+  };
   ASSERT_LE(DetectorParams{}.localizer.candidates.min_width_m, 0.18);
   for (const auto& [seed, z] : {std::pair<std::uint64_t, double>{97, 9.5}, {1013, 28.9}}) {
     EXPECT_GE(bestIouWithPerson(seed, z, narrowest(0.18)), 0.5) << "seed " << seed;
@@ -173,7 +178,10 @@ TEST(SyntheticStatistics, NarrowestPersonBoxLetsTheSymmetricCoreWin) {
 // offset, the box takes in the stride; over the cluster's own edges only, it stays the torso.
 TEST(SyntheticStatistics, WalkingStrideIsInsideTheBox) {
   auto extend = [](bool on) {
-    return [on](DetectorParams& p) { p.localizer.candidates.extent_unassigned_matches = on; };
+    return [on](DetectorParams& p) {
+      p.localizer.candidates.extent_unassigned_matches = on;
+      p.localizer.candidates.widen_in_cluster = false;  // the box as its sideways extension frames it
+    };
   };
   EXPECT_GE(bestIouWithPerson(22, 17.7, extend(true)), 0.5);
   EXPECT_LT(bestIouWithPerson(22, 17.7, extend(false)), 0.4);
@@ -186,7 +194,10 @@ TEST(SyntheticStatistics, WalkingStrideIsInsideTheBox) {
 // clearly better than at the line's, the box takes in the legs; without them it does not.
 TEST(SyntheticStatistics, LegsTheRemovalGaveTheGroundWidenTheBox) {
   auto legs = [](int margin) {
-    return [margin](DetectorParams& p) { p.localizer.candidates.extent_ground_margin = margin; };
+    return [margin](DetectorParams& p) {
+      p.localizer.candidates.extent_ground_margin = margin;
+      p.localizer.candidates.widen_in_cluster = false;  // the box as its sideways extension frames it
+    };
   };
   const int margin = DetectorParams{}.localizer.candidates.extent_ground_margin;
   ASSERT_GT(margin, 0);
@@ -194,6 +205,25 @@ TEST(SyntheticStatistics, LegsTheRemovalGaveTheGroundWidenTheBox) {
     const double with = bestIouWithPerson(seed, z, legs(margin));
     const double without = bestIouWithPerson(seed, z, legs(0));
     std::printf("seed %llu at %.1f m: best IoU %.3f with ground-labelled legs, %.3f without\n",
+                static_cast<unsigned long long>(seed), z, with, without);
+    EXPECT_GE(with, 0.5) << "seed " << seed;
+    EXPECT_LT(without, 0.5) << "seed " << seed;
+  }
+}
+
+// The symmetric core and its two-sided extension frame a walking person's torso; the stride
+// reaches beyond it on both sides. The obstacle stage's box of a person-wide cluster takes the
+// stride in (ObstacleParams::extend_strides). In scene seeds 72 and 87 the people 14.5 and
+// 8.4 m away in mid stride (labels 44 and 73 px wide) get torso boxes (IoU 0.47 with both
+// labels); grown on both sides towards the cluster's sides after scoring, the boxes frame them.
+TEST(SyntheticStatistics, BoxInAPersonWideClusterTakesInTheStride) {
+  auto widen = [](bool on) {
+    return [on](DetectorParams& p) { p.localizer.candidates.widen_in_cluster = on; };
+  };
+  for (const auto& [seed, z] : {std::pair<std::uint64_t, double>{72, 14.5}, {87, 8.4}}) {
+    const double with = bestIouWithPerson(seed, z, widen(true));
+    const double without = bestIouWithPerson(seed, z, widen(false));
+    std::printf("seed %llu at %.1f m: best IoU %.3f widened in the cluster, %.3f without\n",
                 static_cast<unsigned long long>(seed), z, with, without);
     EXPECT_GE(with, 0.5) << "seed " << seed;
     EXPECT_LT(without, 0.5) << "seed " << seed;
