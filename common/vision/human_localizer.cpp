@@ -25,6 +25,18 @@ constexpr int kHogCellPx = 8;  // cell size of both OpenCV people detectors
 constexpr double kNoShape = -5.0;  // HOG margin reported when the box cannot be validated
 constexpr int kMaxBands = 8;       // parallel bands of symmetry axes and of candidate boxes
 
+// The obstacle cluster box h came from (nullptr when there is none, or it has no offset).
+const ObstacleCluster* ownCluster(const SegmentationResult& segmentation, const HumanDetection& h) {
+  for (const ObstacleCluster& c : segmentation.obstacles)
+    if (c.label == h.cluster_label) return c.offset_px > 0 ? &c : nullptr;
+  return nullptr;
+}
+
+// A cluster's width in metres at its offset.
+double clusterWidthM(const ObstacleCluster& c, const StereoRig& rig) {
+  return static_cast<double>(c.box.width) * rig.baseline_m / static_cast<double>(c.offset_px);
+}
+
 void requireLess(double lo, double hi, const char* lo_key, const char* hi_key) {
   if (!(lo < hi)) {
     throw ParamError(std::string("parameter 'localizer.") + lo_key + "' = " + std::to_string(lo) +
@@ -710,36 +722,26 @@ bool HumanLocalizer::insideStructure(const StereoRig& rig, const SegmentationRes
                                      const HumanDetection& h) const {
   const FilterParams& fp = params_.filters;
   if (!(fp.interior_min_width_m > 0.0)) return false;
-  for (const ObstacleCluster& c : segmentation.obstacles) {
-    if (c.label != h.cluster_label) continue;
-    if (c.offset_px <= 0) return false;
-    const double width_m = static_cast<double>(c.box.width) * rig.baseline_m / static_cast<double>(c.offset_px);
-    if (width_m <= fp.interior_min_width_m) return false;
-    const double margin = fp.interior_margin_widths * static_cast<double>(h.box.width);
-    const double left_side = static_cast<double>(h.box.x) - static_cast<double>(c.box.x);
-    const double right_side =
-        static_cast<double>(c.box.x + c.box.width) - static_cast<double>(h.box.x) - static_cast<double>(h.box.width);
-    return left_side >= margin && right_side >= margin;
-  }
-  return false;
+  const ObstacleCluster* c = ownCluster(segmentation, h);
+  if (c == nullptr || clusterWidthM(*c, rig) <= fp.interior_min_width_m) return false;
+  const double margin = fp.interior_margin_widths * static_cast<double>(h.box.width);
+  const double left_side = static_cast<double>(h.box.x) - static_cast<double>(c->box.x);
+  const double right_side =
+      static_cast<double>(c->box.x + c->box.width) - static_cast<double>(h.box.x) - static_cast<double>(h.box.width);
+  return left_side >= margin && right_side >= margin;
 }
 
 void HumanLocalizer::widenInCluster(const StereoRig& rig, const SegmentationResult& segmentation,
                                     HumanDetection& h) const {
   if (!params_.candidates.widen_in_cluster) return;
-  for (const ObstacleCluster& c : segmentation.obstacles) {
-    if (c.label != h.cluster_label) continue;
-    if (c.offset_px <= 0) return;
-    const double width_m = static_cast<double>(c.box.width) * rig.baseline_m / static_cast<double>(c.offset_px);
-    if (width_m > params_.candidates.max_width_m) return;
-    const float left_side = h.box.x - static_cast<float>(c.box.x);
-    const float right_side = static_cast<float>(c.box.x + c.box.width) - (h.box.x + h.box.width);
-    const float growth = std::min(left_side, right_side);
-    if (growth <= 0.0f) return;
-    h.box.x -= growth;
-    h.box.width += 2.0f * growth;
-    return;
-  }
+  const ObstacleCluster* c = ownCluster(segmentation, h);
+  if (c == nullptr || clusterWidthM(*c, rig) > params_.candidates.max_width_m) return;
+  const float left_side = h.box.x - static_cast<float>(c->box.x);
+  const float right_side = static_cast<float>(c->box.x + c->box.width) - (h.box.x + h.box.width);
+  const float growth = std::min(left_side, right_side);
+  if (growth <= 0.0f) return;
+  h.box.x -= growth;
+  h.box.width += 2.0f * growth;
 }
 
 bool HumanLocalizer::validateCandidate(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& right,
