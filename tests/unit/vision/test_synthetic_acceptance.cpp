@@ -51,27 +51,24 @@ std::size_t objectNear(const SceneTruth& t, const char* type, int x) {
   return t.objects.size();
 }
 
-// The object of `type` near column x of random scene `seed` is found with the defaults.
-void expectFoundWithTheDefaults(const char* type, int seed, int x) {
+// The object of `type` near column x of random scene `seed` is found with the defaults, and, when
+// `without` is given (the step under test turned off), not with it.
+void expectFound(const char* type, int seed, int x, const SegmenterParams* without = nullptr) {
   const StereoPair pair =
       renderSyntheticScene(randomSceneParams(static_cast<std::uint64_t>(seed)), static_cast<std::uint64_t>(seed));
   const std::size_t k = objectNear(*pair.truth, type, x);
   ASSERT_LT(k, pair.truth->objects.size()) << "seed " << seed << ": no " << type << " at column " << x;
   EXPECT_TRUE(objectFound(segment(pair), pair, k)) << "seed " << seed;
+  if (without != nullptr) {
+    EXPECT_FALSE(objectFound(segment(pair, *without), pair, k)) << "seed " << seed;
+  }
 }
 
 // For each random scene (seed) the object of `type` near column x is found with the defaults and
-// not with `without` (the step under test turned off).
+// not with `without`.
 void expectFoundOnlyWithTheStep(const SegmenterParams& without, const char* type,
                                 std::initializer_list<std::pair<int, int>> seeds_and_columns) {
-  for (const auto& [seed, x] : seeds_and_columns) {
-    const StereoPair pair =
-        renderSyntheticScene(randomSceneParams(static_cast<std::uint64_t>(seed)), static_cast<std::uint64_t>(seed));
-    const std::size_t k = objectNear(*pair.truth, type, x);
-    ASSERT_LT(k, pair.truth->objects.size()) << "seed " << seed << ": no " << type << " at column " << x;
-    EXPECT_TRUE(objectFound(segment(pair), pair, k)) << "seed " << seed;
-    EXPECT_FALSE(objectFound(segment(pair, without), pair, k)) << "seed " << seed;
-  }
+  for (const auto& [seed, x] : seeds_and_columns) expectFound(type, seed, x, &without);
 }
 
 // People at least min_distance_m away, and how many of them lie in a cluster of `with` and of
@@ -763,7 +760,7 @@ TEST(SyntheticObstacles, StridingPeopleAreBoxedWithTheirLegs) {
   SegmenterParams off;
   off.obstacles.extend_strides = false;
   expectFoundOnlyWithTheStep(off, "Pedestrian", {{22, 758}, {161, 1132}});
-  expectFoundWithTheDefaults("Misc", 150, 891);
+  expectFound("Misc", 150, 891);
 }
 
 // A trailing leg's slanted outline matches the right image within the 5-pixel window but misses
@@ -787,7 +784,7 @@ TEST(SyntheticObstacles, PeopleJoinedAlongTheGroundAreSplit) {
   SegmenterParams joined;
   joined.obstacles.split_ground_links = false;
   expectFoundOnlyWithTheStep(joined, "Pedestrian", {{336, 654}, {580, 165}});
-  expectFoundWithTheDefaults("Car", 4, 587);
+  expectFound("Car", 4, 587);
 }
 
 // Long walls whose near end is out of view (they run from 40 m to beside the camera): only a
