@@ -718,17 +718,19 @@ void flattenClutter(cv::Mat& patch, const cv::Mat& labels, cv::Point at, int k, 
   }
 }
 
-bool HumanLocalizer::insideStructure(const StereoRig& rig, const SegmentationResult& segmentation,
-                                     const HumanDetection& h) const {
+double HumanLocalizer::structureMinScore(const StereoRig& rig, const SegmentationResult& segmentation,
+                                         const HumanDetection& h) const {
   const FilterParams& fp = params_.filters;
-  if (!(fp.interior_min_width_m > 0.0)) return false;
+  if (!(fp.interior_min_width_m > 0.0)) return 0.0;
   const ObstacleCluster* c = ownCluster(segmentation, h);
-  if (c == nullptr || clusterWidthM(*c, rig) <= fp.interior_min_width_m) return false;
+  if (c == nullptr || clusterWidthM(*c, rig) <= fp.interior_min_width_m) return 0.0;
   const double margin = fp.interior_margin_widths * static_cast<double>(h.box.width);
   const double left_side = static_cast<double>(h.box.x) - static_cast<double>(c->box.x);
   const double right_side =
       static_cast<double>(c->box.x + c->box.width) - static_cast<double>(h.box.x) - static_cast<double>(h.box.width);
-  return left_side >= margin && right_side >= margin;
+  if (left_side >= margin && right_side >= margin) return fp.interior_min_score;
+  if (left_side >= margin || right_side >= margin) return fp.end_min_score;
+  return 0.0;
 }
 
 void HumanLocalizer::widenInCluster(const StereoRig& rig, const SegmentationResult& segmentation,
@@ -821,8 +823,7 @@ bool HumanLocalizer::validateCandidate(BoxWorkspace& ws, const cv::Mat& left, co
   h.shape_score = params_.shape.enabled ? shapeScore(ws, left, labelled ? segmentation.labels : no_labels, h.box) : 0.0f;
   h.score = static_cast<float>(combinedScore(static_cast<double>(h.symmetry), static_cast<double>(h.shape_score)));
   if (static_cast<double>(h.score) < params_.score.min_score) return false;
-  if (static_cast<double>(h.score) < params_.filters.interior_min_score && insideStructure(rig, segmentation, h))
-    return false;
+  if (static_cast<double>(h.score) < structureMinScore(rig, segmentation, h)) return false;
   // Step 6: the stride. The symmetric core frames the torso; a walking person's legs reach
   // beyond it, and the obstacle stage's box of a person-wide cluster takes them in
   // (ObstacleParams::extend_strides). Both sides grow alike, so the centre, the position and

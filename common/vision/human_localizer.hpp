@@ -109,6 +109,9 @@ struct FilterParams {
   double interior_min_width_m = 1.5;
   double interior_margin_widths = 1.0;
   double interior_min_score = 0.7;
+  // A box at one end of such a structure (the cluster reaches interior_margin_widths box widths
+  // beyond it on one side only: the end of a car or a wall, or a person beside it) needs end_min_score.
+  double end_min_score = 0.45;
   double nms_iou = 0.25;                  // duplicates: intersection over union above this
   double nms_containment = 0.7;           // duplicates: share of the smaller box inside the larger one
 
@@ -125,6 +128,9 @@ struct FilterParams {
     v.field("interior_margin_widths", interior_margin_widths, 0.0, 100.0, "box widths",
             "... which reaches this many box widths beyond it on both sides ...");
     v.field("interior_min_score", interior_min_score, 0.0, 1.0, "", "... is kept only when it scores at least this");
+    v.field("end_min_score", end_min_score, 0.0, 1.0, "",
+            "a box at one end of such a cluster (reaching that far beyond it on one side only) is kept only "
+            "when it scores at least this (0: no such test)");
     v.field("nms_iou", nms_iou, 0.0, 1.0, "", "non-maximum suppression overlap (IoU)");
     v.field("nms_containment", nms_containment, 0.0, 1.0, "", "non-maximum suppression containment");
   }
@@ -204,7 +210,7 @@ struct ScoreParams {
   double bias = 1.074;
   double w_symmetry = 0.655;
   double w_shape = 2.081;
-  double min_score = 0.395;  // detections below are dropped
+  double min_score = 0.265;  // detections below are dropped
 
   template <class V>
   void visit(V& v) {
@@ -314,7 +320,9 @@ class HumanLocalizer {
                      double frac) const;
   float shapeScore(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& labels, const cv::Rect2f& box) const;
   // True when box h lies in the middle of a cluster much wider than a person (filters.interior_*).
-  bool insideStructure(const StereoRig& rig, const SegmentationResult& segmentation, const HumanDetection& h) const;
+  // The score a box must reach where it lies in its cluster: interior_min_score in the middle of
+  // a structure, end_min_score at one of its ends, 0 elsewhere (FilterParams).
+  double structureMinScore(const StereoRig& rig, const SegmentationResult& segmentation, const HumanDetection& h) const;
   // A kept box inside a cluster no wider than the widest person (candidates.max_width_m at the
   // cluster's offset) grows on both sides by the smaller of its distances to the cluster's
   // sides (candidates.widen_in_cluster).

@@ -124,10 +124,17 @@ int main(int argc, char** argv) {
         }
         const double f = pair.rig.focal_px, z = static_cast<double>(h.distance_m);
         const double w = static_cast<double>(h.box.width), ht = static_cast<double>(h.box.height);
-        std::fprintf(dump, "C %llu %d %d %.4f %.4f %.4f %.1f %.1f %.3f %.3f %.3f %.1f %d\n",
+        // The box's own cluster (x0 x1 y0 y1 offset; -1 when none) after the box's left column and top row.
+        cv::Rect cluster(-1, -1, 0, 0);
+        int cluster_offset = -1;
+        for (const ObstacleCluster& c : result.segmentation.obstacles)
+          if (c.label == h.cluster_label) { cluster = c.box; cluster_offset = c.offset_px; }
+        std::fprintf(dump, "C %llu %d %d %.4f %.4f %.4f %.1f %.1f %.3f %.3f %.3f %.1f %d %.1f %.1f %d %d %d %d %d\n",
                      static_cast<unsigned long long>(seed), label, ignored, static_cast<double>(h.symmetry),
                      static_cast<double>(h.shape_score), static_cast<double>(h.match_quality), w, ht, z, ht * z / f,
-                     w * z / f, static_cast<double>(h.offset_px), h.ground_contact_row);
+                     w * z / f, static_cast<double>(h.offset_px), h.ground_contact_row, static_cast<double>(h.box.x),
+                     static_cast<double>(h.box.y), cluster.x, cluster.x + cluster.width - 1, cluster.y,
+                     cluster.y + cluster.height - 1, cluster_offset);
       }
     }
     const FrameEvaluation& fe = evaluator.addFrame(pair.id, pair.labels, toScoredBoxes(result.humans));

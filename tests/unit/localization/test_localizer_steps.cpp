@@ -303,6 +303,7 @@ TEST(Localizer, BoxInTheMiddleOfAWideStructureNeedsAHighScore) {
     s.obstacles[0].box = cluster_box;
     LocalizerParams p = stepParams();
     p.filters.interior_min_score = interior_min_score;
+    p.filters.end_min_score = 0.0;  // the ends' own test is BoxAtTheEndOfAWideStructureNeedsItsOwnScore
     return bestMatch(p, scene, s, truth);
   };
   const HumanDetection found = detect(middle, 0.0);
@@ -319,6 +320,42 @@ TEST(Localizer, BoxInTheMiddleOfAWideStructureNeedsAHighScore) {
   SegmentationResult s = scene.segmentation;
   s.obstacles[0].box = middle;
   EXPECT_GT(boxIoU(bestMatch(narrow, scene, s, truth).box, cv::Rect2f(truth)), 0.5);
+}
+
+// At one end of such a cluster (the end of a car, a crate or a wall, or a person beside it at
+// its distance) a box needs filters.end_min_score, at either end; in the middle the interior
+// score decides, and a cluster of the figure's own width is no structure.
+TEST(Localizer, BoxAtTheEndOfAWideStructureNeedsItsOwnScore) {
+  const auto scene = test::renderFigureScene({test::Figure{320.0, 20.0, 1.7, true, 5}});
+  const cv::Rect truth = scene.figure_boxes[0];
+  const int w = truth.width;
+  const cv::Rect left_end(truth.x, truth.y, 7 * w, truth.height);           // the figure at its left end
+  const cv::Rect right_end(truth.x - 6 * w, truth.y, 7 * w, truth.height);  // ... and at its right end
+  const cv::Rect middle(truth.x - 3 * w, truth.y, 7 * w, truth.height);
+  ASSERT_GE(right_end.x, 0);
+  ASSERT_LE(left_end.br().x, scene.left.cols);
+  ASSERT_GT(scene.rig.baseline_m * left_end.width / 20.0, 2.0 * LocalizerParams{}.filters.interior_min_width_m);
+  auto iouWith = [&](const cv::Rect& cluster_box, double end_min_score) {
+    SegmentationResult s = scene.segmentation;
+    s.obstacles[0].box = cluster_box;
+    LocalizerParams p = stepParams();
+    p.filters.interior_min_score = 0.0;
+    p.filters.end_min_score = end_min_score;
+    return boxIoU(bestMatch(p, scene, s, truth).box, cv::Rect2f(truth));
+  };
+  SegmentationResult s = scene.segmentation;
+  s.obstacles[0].box = left_end;
+  LocalizerParams off = stepParams();
+  off.filters.end_min_score = 0.0;
+  const HumanDetection found = bestMatch(off, scene, s, truth);
+  ASSERT_GT(boxIoU(found.box, cv::Rect2f(truth)), 0.5);
+  ASSERT_LT(found.score, 1.0f);
+  const double above = 0.5 * (static_cast<double>(found.score) + 1.0);  // more than the figure scores
+  EXPECT_GT(iouWith(left_end, 0.0), 0.5);
+  EXPECT_LT(iouWith(left_end, above), 0.5);
+  EXPECT_LT(iouWith(right_end, above), 0.5);
+  EXPECT_GT(iouWith(middle, above), 0.5);  // interior_min_score (0 here) decides there
+  EXPECT_GT(iouWith(truth, above), 0.5);
 }
 
 TEST(Localizer, EmptySegmentationGivesNoDetection) {

@@ -4,13 +4,10 @@
 // Targets: recall >= 0.9 at <= 0.2 false positives per frame, median distance
 // error <= 3 %, box bottoms within 3 px of the true feet row.
 //
-// KNOWN SHORTFALL: the recall target is not met yet. Measured on seeds
-// 1000-1099 (all targets, DISABLED_ test below, ~3 min, mostly rendering):
-// recall 0.750 at <= 0.2 FP/frame (AP40 0.727), median |dZ|/Z 0.0051 (p90 0.0137),
-// box-bottom error median 0.71 px (p90 2.02). Most misses have no obstacle
-// cluster around the person or a box below IoU 0.5 (docs/evaluation.md).
-// The test is disabled, not loosened; run it with --gtest_also_run_disabled_tests.
-// The enabled test checks the distance and feet-row targets on 12 seeds.
+// Measured on seeds 1000-1099 (the score weights and threshold come from seeds 0-99):
+// recall 0.900 at 0.12 false positives per frame (TP 198, FP 12, AP40 0.894), median
+// |dZ|/Z 0.0051 (p90 0.0124), box-bottom error median 0.48 px (p90 1.66); about 16 s,
+// mostly rendering. The recall sits on the target: one person fewer fails it.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -36,7 +33,7 @@ int seedCount() {
   return env != nullptr ? std::max(1, std::atoi(env)) : 100;
 }
 
-void runStatistics(int n, bool check_recall) {
+void runStatistics(int n) {
   DetectorParams params;
   params.tracking = false;  // independent single frames
   Detector detector(params);
@@ -67,17 +64,12 @@ void runStatistics(int n, bool check_recall) {
   std::printf("box bottom |error| px: median %.2f p90 %.2f\n", bottom_median, bottom_p90);
   std::printf("%.1f s for %d frames (%.0f ms/frame incl. rendering)\n", seconds, n, 1000.0 * seconds / n);
 
-  if (check_recall) {
-    EXPECT_GE(recall_at, 0.9) << "recall at <= 0.2 false positives per frame";
-  }
+  EXPECT_GE(recall_at, 0.9) << "recall at <= 0.2 false positives per frame";
   EXPECT_LE(s.distance_all.median, 0.03) << "median relative distance error";
   EXPECT_LE(bottom_median, 3.0) << "median box-bottom error (pixels) against the true feet row";
 }
 
-
-TEST(SyntheticStatistics, DistanceAndFeetRowOnTwelveSeeds) { runStatistics(12, false); }
-
-TEST(SyntheticStatistics, DISABLED_RecallFalsePositivesDistanceAndFeetRow) { runStatistics(seedCount(), true); }
+TEST(SyntheticStatistics, RecallFalsePositivesDistanceAndFeetRow) { runStatistics(seedCount()); }
 
 // The validated boxes (whatever their score) of scene `seed`, detected with `configure` applied
 // to the default parameters, and the box of its one pedestrian at distance `z_m` as pixel edges.
@@ -124,14 +116,15 @@ double bestScoreOnPerson(std::uint64_t seed, double z_m, Configure configure) {
 }
 
 // The shape classifier reads its window every 8-pixel cell of the resampled box. People whose
-// box puts them between two window positions score low there: in scene seeds 1043, 1044 and
-// 1000 (23.8, 17.0 and 27.8 m away) the box on the person is right (IoU >= 0.5) and scores
-// below the threshold with whole-cell positions only; read at the half-cell positions too, it
-// scores above it.
+// box puts them between two window positions score low there: in scene seeds 1043, 1008, 1089
+// and 1004 (23.8, 34.3, 32.6 and 13.9 m away) the box on the person is right (IoU >= 0.5) and
+// scores 0.00-0.22, below the threshold, with whole-cell positions only; read at the half-cell
+// positions too, it scores 0.375-0.83, above it. (Seeds 1044 and 1000 were lifted from 0.28
+// and 0.26 when the threshold was 0.395.)
 TEST(SyntheticStatistics, HalfCellWindowsLiftPeopleBetweenTheWholeCellPositions) {
   auto half = [](bool on) { return [on](DetectorParams& p) { p.localizer.shape.half_cell_windows = on; }; };
   const double threshold = DetectorParams{}.localizer.score.min_score;
-  for (const auto& [seed, z] : {std::pair<std::uint64_t, double>{1043, 23.8}, {1044, 17.0}, {1000, 27.8}}) {
+  for (const auto& [seed, z] : {std::pair<std::uint64_t, double>{1043, 23.8}, {1008, 34.3}, {1089, 32.6}, {1004, 13.9}}) {
     const double with = bestScoreOnPerson(seed, z, half(true));
     const double without = bestScoreOnPerson(seed, z, half(false));
     std::printf("seed %llu at %.1f m: score %.3f with half-cell windows, %.3f without\n",
