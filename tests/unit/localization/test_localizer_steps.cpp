@@ -287,75 +287,63 @@ TEST(Localizer, ClustersAtTheSameDistanceAreOneObject) {
   EXPECT_GT(bestIoU(21, 0.6), 0.5);  // within 0.6 m
 }
 
-// A figure in the middle of a cluster much wider than a person (a car's side, a wall at the
-// same distance) needs filters.interior_min_score; at the cluster's end it does not.
-TEST(Localizer, BoxInTheMiddleOfAWideStructureNeedsAHighScore) {
-  const auto scene = test::renderFigureScene({test::Figure{320.0, 20.0, 1.7, true, 5}});
-  const cv::Rect truth = scene.figure_boxes[0];
-  const int w = truth.width;
-  const cv::Rect middle(truth.x - 3 * w, truth.y, 7 * w, truth.height);  // three widths on both sides
-  const cv::Rect end(truth.x, truth.y, 7 * w, truth.height);             // the figure at its left end
-  ASSERT_GE(middle.x, 0);
-  ASSERT_LE(end.br().x, scene.left.cols);
-  ASSERT_GT(scene.rig.baseline_m * middle.width / 20.0, 2.0 * LocalizerParams{}.filters.interior_min_width_m);
-  auto detect = [&](const cv::Rect& cluster_box, double interior_min_score) {
+// One figure at offset 20 (10 m) whose cluster box the structure tests replace: the best
+// match with the figure for a cluster box and the structure scores asked of a box there.
+struct StructureScene {
+  test::FigureScene scene = test::renderFigureScene({test::Figure{320.0, 20.0, 1.7, true, 5}});
+  cv::Rect truth = scene.figure_boxes[0];
+  int w = truth.width;
+  cv::Rect middle{truth.x - 3 * w, truth.y, 7 * w, truth.height};     // three widths on both sides
+  cv::Rect left_end{truth.x, truth.y, 7 * w, truth.height};           // the figure at its left end
+  cv::Rect right_end{truth.x - 6 * w, truth.y, 7 * w, truth.height};  // ... and at its right end
+
+  HumanDetection detect(const cv::Rect& cluster_box, double interior_min_score, double end_min_score,
+                        double interior_min_width_m = LocalizerParams{}.filters.interior_min_width_m) const {
     SegmentationResult s = scene.segmentation;
     s.obstacles[0].box = cluster_box;
     LocalizerParams p = stepParams();
     p.filters.interior_min_score = interior_min_score;
-    p.filters.end_min_score = 0.0;  // the ends' own test is BoxAtTheEndOfAWideStructureNeedsItsOwnScore
+    p.filters.end_min_score = end_min_score;
+    p.filters.interior_min_width_m = interior_min_width_m;
     return bestMatch(p, scene, s, truth);
-  };
-  const HumanDetection found = detect(middle, 0.0);
-  ASSERT_GT(boxIoU(found.box, cv::Rect2f(truth)), 0.5);
-  ASSERT_LT(found.score, 1.0f);
-  const double above = 0.5 * (static_cast<double>(found.score) + 1.0);  // more than the figure scores
-  EXPECT_LT(boxIoU(detect(middle, above).box, cv::Rect2f(truth)), 0.5);
-  EXPECT_GT(boxIoU(detect(end, above).box, cv::Rect2f(truth)), 0.5);
-  EXPECT_GT(boxIoU(detect(truth, above).box, cv::Rect2f(truth)), 0.5);
+  }
+  double iou(const HumanDetection& h) const { return boxIoU(h.box, cv::Rect2f(truth)); }
+  // A score above the figure's (found with both structure scores 0 in `cluster_box`).
+  double above(const cv::Rect& cluster_box) const {
+    const HumanDetection found = detect(cluster_box, 0.0, 0.0);
+    EXPECT_GT(iou(found), 0.5);
+    EXPECT_LT(found.score, 1.0f);
+    return 0.5 * (static_cast<double>(found.score) + 1.0);
+  }
+  double widthM(const cv::Rect& box) const { return scene.rig.baseline_m * box.width / 20.0; }
+};
+
+// A figure in the middle of a cluster much wider than a person (a car's side, a wall at the
+// same distance) needs filters.interior_min_score; at the cluster's end it does not.
+TEST(Localizer, BoxInTheMiddleOfAWideStructureNeedsAHighScore) {
+  const StructureScene t;
+  ASSERT_GE(t.right_end.x, 0);
+  ASSERT_LE(t.left_end.br().x, t.scene.left.cols);
+  ASSERT_GT(t.widthM(t.middle), 2.0 * LocalizerParams{}.filters.interior_min_width_m);
+  const double above = t.above(t.middle);
+  EXPECT_LT(t.iou(t.detect(t.middle, above, 0.0)), 0.5);
+  EXPECT_GT(t.iou(t.detect(t.left_end, above, 0.0)), 0.5);
+  EXPECT_GT(t.iou(t.detect(t.truth, above, 0.0)), 0.5);
   // A structure narrower than interior_min_width_m is a person's size: not tested.
-  LocalizerParams narrow = stepParams();
-  narrow.filters.interior_min_score = above;
-  narrow.filters.interior_min_width_m = scene.rig.baseline_m * middle.width / 20.0 + 0.1;
-  SegmentationResult s = scene.segmentation;
-  s.obstacles[0].box = middle;
-  EXPECT_GT(boxIoU(bestMatch(narrow, scene, s, truth).box, cv::Rect2f(truth)), 0.5);
+  EXPECT_GT(t.iou(t.detect(t.middle, above, 0.0, t.widthM(t.middle) + 0.1)), 0.5);
 }
 
 // At one end of such a cluster (the end of a car, a crate or a wall, or a person beside it at
 // its distance) a box needs filters.end_min_score, at either end; in the middle the interior
 // score decides, and a cluster of the figure's own width is no structure.
 TEST(Localizer, BoxAtTheEndOfAWideStructureNeedsItsOwnScore) {
-  const auto scene = test::renderFigureScene({test::Figure{320.0, 20.0, 1.7, true, 5}});
-  const cv::Rect truth = scene.figure_boxes[0];
-  const int w = truth.width;
-  const cv::Rect left_end(truth.x, truth.y, 7 * w, truth.height);           // the figure at its left end
-  const cv::Rect right_end(truth.x - 6 * w, truth.y, 7 * w, truth.height);  // ... and at its right end
-  const cv::Rect middle(truth.x - 3 * w, truth.y, 7 * w, truth.height);
-  ASSERT_GE(right_end.x, 0);
-  ASSERT_LE(left_end.br().x, scene.left.cols);
-  ASSERT_GT(scene.rig.baseline_m * left_end.width / 20.0, 2.0 * LocalizerParams{}.filters.interior_min_width_m);
-  auto iouWith = [&](const cv::Rect& cluster_box, double end_min_score) {
-    SegmentationResult s = scene.segmentation;
-    s.obstacles[0].box = cluster_box;
-    LocalizerParams p = stepParams();
-    p.filters.interior_min_score = 0.0;
-    p.filters.end_min_score = end_min_score;
-    return boxIoU(bestMatch(p, scene, s, truth).box, cv::Rect2f(truth));
-  };
-  SegmentationResult s = scene.segmentation;
-  s.obstacles[0].box = left_end;
-  LocalizerParams off = stepParams();
-  off.filters.end_min_score = 0.0;
-  const HumanDetection found = bestMatch(off, scene, s, truth);
-  ASSERT_GT(boxIoU(found.box, cv::Rect2f(truth)), 0.5);
-  ASSERT_LT(found.score, 1.0f);
-  const double above = 0.5 * (static_cast<double>(found.score) + 1.0);  // more than the figure scores
-  EXPECT_GT(iouWith(left_end, 0.0), 0.5);
-  EXPECT_LT(iouWith(left_end, above), 0.5);
-  EXPECT_LT(iouWith(right_end, above), 0.5);
-  EXPECT_GT(iouWith(middle, above), 0.5);  // interior_min_score (0 here) decides there
-  EXPECT_GT(iouWith(truth, above), 0.5);
+  const StructureScene t;
+  const double above = t.above(t.left_end);
+  EXPECT_GT(t.iou(t.detect(t.left_end, 0.0, 0.0)), 0.5);
+  EXPECT_LT(t.iou(t.detect(t.left_end, 0.0, above)), 0.5);
+  EXPECT_LT(t.iou(t.detect(t.right_end, 0.0, above)), 0.5);
+  EXPECT_GT(t.iou(t.detect(t.middle, 0.0, above)), 0.5);  // interior_min_score (0 here) decides there
+  EXPECT_GT(t.iou(t.detect(t.truth, 0.0, above)), 0.5);
 }
 
 TEST(Localizer, EmptySegmentationGivesNoDetection) {
