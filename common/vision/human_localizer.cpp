@@ -291,8 +291,10 @@ void HumanLocalizer::candidatesInCluster(const cv::Mat& left, const cv::Mat& rig
   if (cbox.area() <= 0) return;
   const int cluster_bottom = cbox.y + cbox.height - 1;
   // Perspective from the ground line: the feet of a person at offset d stand
-  // on the row where the ground offset is d.
-  const double contact = groundRowForOffset(segmentation.ground, rig, d, cluster_bottom);
+  // on the row where the ground offset is d, at the cluster's column (on a
+  // transversal slope the ground's offset changes along the row; step 4 reads it so too).
+  const double contact = groundRowForOffset(segmentation.ground, rig, d, cluster_bottom,
+                                            cp.contact_at_column ? cbox.x + 0.5 * (cbox.width - 1) : kNaN);
   int bottom = std::isfinite(contact) ? static_cast<int>(std::lround(contact)) : cluster_bottom;
   // A contact far below the cluster means the line is wrong for this object: trust the cluster.
   if (bottom > cluster_bottom + max_h_px / 2 || bottom < cbox.y + min_h_px / 2) bottom = cluster_bottom;

@@ -42,6 +42,8 @@ struct CandidateParams {
   double min_aspect = 1.4;        // box height / width
   double max_aspect = 5.0;
   double region_margin = 0.25;    // search region = cluster box grown by this share of the person width range
+  bool contact_at_column = true;  // the feet row of the search read from the ground line at the cluster's
+                                  // centre column (a transversal slope), not at the line's reference column
   int min_height_px = 16;         // smaller boxes cannot be validated
   int max_per_cluster = 4;        // candidates kept per cluster after suppression
   double min_symmetry = 0.12;     // symmetry score below which a candidate is dropped ...
@@ -88,6 +90,9 @@ struct CandidateParams {
     v.field("extent_ground_clearance_px", extent_ground_clearance_px, 0.0, 20.0, "pixels",
             "rows whose ground line offset is within this of the cluster's (near the feet) cannot tell the two "
             "apart: their ground pixels stay the ground's");
+    v.field("contact_at_column", contact_at_column, 0, 1, "",
+            "the search's feet row is where the ground line has the cluster's offset at the cluster's centre "
+            "column (on a transversal slope the line's offset changes along the row)");
     v.field("extent_blind_band", extent_blind_band, 0, 1, "",
             "a box touching the left band that the right camera cannot see at the cluster's offset grows into it "
             "on its edges alone (one-sided); unassigned features there count as the cluster's");
@@ -111,7 +116,7 @@ struct FilterParams {
   double interior_min_score = 0.7;
   // A box at one end of such a structure (the cluster reaches interior_margin_widths box widths
   // beyond it on one side only: the end of a car or a wall, or a person beside it) needs end_min_score.
-  double end_min_score = 0.45;
+  double end_min_score = 0.41;
   double nms_iou = 0.25;                  // duplicates: intersection over union above this
   double nms_containment = 0.7;           // duplicates: share of the smaller box inside the larger one
 
@@ -210,7 +215,7 @@ struct ScoreParams {
   double bias = 1.074;
   double w_symmetry = 0.655;
   double w_shape = 2.081;
-  double min_score = 0.265;  // detections below are dropped
+  double min_score = 0.295;  // detections below are dropped
 
   template <class V>
   void visit(V& v) {
