@@ -324,7 +324,6 @@ class HumanLocalizer {
   float shapeScoreAt(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& labels, const cv::Rect2f& box,
                      double frac) const;
   float shapeScore(BoxWorkspace& ws, const cv::Mat& left, const cv::Mat& labels, const cv::Rect2f& box) const;
-  // True when box h lies in the middle of a cluster much wider than a person (filters.interior_*).
   // The score a box must reach where it lies in its cluster: interior_min_score in the middle of
   // a structure, end_min_score at one of its ends, 0 elsewhere (FilterParams).
   double structureMinScore(const StereoRig& rig, const SegmentationResult& segmentation, const HumanDetection& h) const;
