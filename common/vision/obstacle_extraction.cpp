@@ -1666,6 +1666,10 @@ int ObstacleExtractor::splitGroundLinks(const cv::Mat& left, const cv::Mat& righ
   int removed = 0;
   std::vector<int>& above = pixels_above_foot_;
   above.reserve(static_cast<std::size_t>(cols));  // no box is wider than the image
+  link_parts_.reserve(static_cast<std::size_t>(cols));  // a part per column at most
+  split_off_.clear();
+  split_off_.reserve(static_cast<std::size_t>(std::max(0, params_.max_obstacles)));
+  obstacles.reserve(static_cast<std::size_t>(std::max(0, params_.max_obstacles)));
   for (ObstacleCluster& o : obstacles) {
     if (o.offset_px <= 0 || !atOneOffset(o)) continue;
     // The obstacle's pixels above its foot, per column.
@@ -1678,6 +1682,7 @@ int ObstacleExtractor::splitGroundLinks(const cv::Mat& left, const cv::Mat& righ
     // Parts between links (runs of at least min_link columns without such pixels); the one with
     // the most pixels is the candidate.
     int best_a = -1, best_b = -1, best_n = 0, links = 0;
+    link_parts_.clear();
     for (int k = 0; k < o.box.width;) {
       if (above[static_cast<std::size_t>(k)] == 0) {
         int e = k;
@@ -1703,6 +1708,7 @@ int ObstacleExtractor::splitGroundLinks(const cv::Mat& left, const cv::Mat& righ
         best_b = b;
         best_n = n;
       }
+      link_parts_.push_back(LinkPart{a, b});
       k = b + 1;
     }
     if (links == 0 || best_a < 0) continue;
@@ -1715,15 +1721,61 @@ int ObstacleExtractor::splitGroundLinks(const cv::Mat& left, const cv::Mat& righ
     // A plain face between two outlines: its upper outline runs across the links at the offset.
     const int d0 = std::max(0, o.offset_px - params_.offset_tolerance_px), d1 = o.offset_px + params_.offset_tolerance_px;
     int link_columns = 0, outlined = 0;
+    const int margin = std::max(2, o.box.height / 8);
+    const int inner_top = o.box.y + margin, inner_bottom = o.box.y + o.box.height - 1 - margin;
     for (int k = 0; k < o.box.width; ++k) {
       if (above[static_cast<std::size_t>(k)] != 0) continue;
       ++link_columns;
+      // With `link_plain_outline`, only a plain column (at most a quarter of its inner rows
+      // features) can be a face's: textured hills behind a link match along the top by chance.
+      if (params_.link_plain_outline &&
+          4 * featuresInColumn(labels, o.box.x + k, inner_top, inner_bottom) > inner_bottom - inner_top + 1)
+        continue;
       outlined += outlineAt(left, right, o.box.y, o.box.x + k, d0, d1) ? 1 : 0;
     }
     if (outlined >= params_.plain_min_outline_fraction * link_columns) continue;
+    // The other parts of a person's size are obstacles of their own (two people at one offset).
+    if (params_.link_keep_parts) {
+      for (const LinkPart& part : link_parts_) {
+        if (part.a == best_a) continue;
+        const int label = kLabelFirstObstacle + static_cast<int>(obstacles.size() + split_off_.size());
+        if (label > 255 || static_cast<int>(obstacles.size() + split_off_.size()) >= params_.max_obstacles) break;
+        const int x0 = o.box.x + part.a, x1 = o.box.x + part.b;
+        int top = -1;
+        for (int y = o.box.y; y < o.box.y + o.box.height && top < 0; ++y) {
+          const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+          for (int x = x0; x <= x1; ++x)
+            if (lab[x] == o.label) {
+              top = y;
+              break;
+            }
+        }
+        if (top < 0) continue;
+        const int bottom = o.box.y + o.box.height - 1;
+        const double part_w = (x1 - x0 + 1) * metres_per_px, part_h = (bottom - top + 1) * metres_per_px;
+        if (part_w < params_.link_min_part_width_m || part_w > params_.weak_max_width_m ||
+            part_h < params_.weak_min_height_m || part_h > params_.weak_max_height_m || x1 - x0 + 1 < params_.min_width_px)
+          continue;
+        ObstacleCluster c = o;
+        c.label = label;
+        c.box = cv::Rect(x0, top, x1 - x0 + 1, bottom - top + 1);
+        c.feature_count = 0;
+        for (int y = top; y <= bottom; ++y) {
+          std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+          for (int x = x0; x <= x1; ++x)
+            if (lab[x] == o.label) {
+              lab[x] = static_cast<std::uint8_t>(label);
+              ++c.feature_count;
+              --o.feature_count;
+            }
+        }
+        split_off_.push_back(c);
+      }
+    }
     removed += o.box.width - (best_b - best_a + 1);
     narrowTo(o, o.box.x + best_a, o.box.x + best_b, labels);
   }
+  obstacles.insert(obstacles.end(), split_off_.begin(), split_off_.end());
   return removed;
 }
 

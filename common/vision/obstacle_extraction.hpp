@@ -104,9 +104,11 @@ struct ObstacleParams {
   double foreign_max_share = 0.7;    // largest share of a box's width trimmed
   bool trim_foot_skirt = true;     // side columns holding the obstacle's pixels at its foot only are trimmed
   // A person joined to something at the same offset by a link along the ground (the ground's
-  // residue at their common foot row, a shadow's edge) keeps the person-sized part only.
+  // residue at their common foot row, a shadow's edge) is split there; person-sized parts are kept.
   bool split_ground_links = true;
   double link_min_part_width_m = 0.2;  // narrowest part kept as a person's (seen from the side, the chest's depth)
+  bool link_keep_parts = true;         // the other person-sized parts become obstacles of their own
+  bool link_plain_outline = true;      // only plain link columns count as a face's upper outline
   bool join_plain_faces = true;
   double plain_max_feature_fraction = 0.05;  // share of the gap's inner pixels that are features pinning an
                                              // offset (not along a horizontal edge) up to which it is plain;
@@ -211,6 +213,10 @@ struct ObstacleParams {
             "keep the person-sized part of an obstacle joined to another by pixels at its foot only");
     v.field("link_min_part_width_m", link_min_part_width_m, 0.0, 10.0, "metres",
             "narrowest part kept as a person's");
+    v.field("link_keep_parts", link_keep_parts, 0, 1, "",
+            "the other parts between links that have a person's size become obstacles of their own");
+    v.field("link_plain_outline", link_plain_outline, 0, 1, "",
+            "a link column counts as a plain face's (its upper outline matching) only when it is plain");
     v.field("join_plain_faces", join_plain_faces, 0, 1, "", "join the two sides of a plain face");
     v.field("plain_max_feature_fraction", plain_max_feature_fraction, 0.0, 1.0, "",
             "share of the gap that is features pinning an offset (not horizontal edges; one side only: "
@@ -312,8 +318,10 @@ class ObstacleExtractor {
   // sides, has the most pixels above the foot, a person's height and a width from
   // link_min_part_width_m to weak_max_width_m (from its offset and baseline_m), and the runs are
   // not a plain face's inside (fewer than plain_min_outline_fraction of their columns matching at
-  // the offset along the box's top: a vehicle's or a box's upper outline), the obstacle keeps
-  // that part; the rest of its pixels become unassigned. Returns the number of columns removed.
+  // the offset along the box's top: a vehicle's or a box's upper outline; with link_plain_outline
+  // only plain link columns count), the obstacle keeps that part. With link_keep_parts the other
+  // parts of a person's size become obstacles of their own (appended); the rest of its pixels
+  // become unassigned. Returns the number of columns removed.
   int splitGroundLinks(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
                        std::vector<ObstacleCluster>& obstacles, double baseline_m);
 
@@ -477,6 +485,11 @@ class ObstacleExtractor {
   std::vector<FaceColumn> face_columns_;
   std::vector<std::uint8_t> hidden_columns_;  // joinPlainFaces: gap columns behind a nearer obstacle
   std::vector<int> pixels_above_foot_;        // splitGroundLinks: an obstacle's pixels above its foot per column
+  struct LinkPart {
+    int a = 0, b = 0;  // columns relative to the box
+  };
+  std::vector<LinkPart> link_parts_;          // splitGroundLinks: the parts between links of one obstacle
+  std::vector<ObstacleCluster> split_off_;    // splitGroundLinks: parts that become obstacles of their own
   // Does column x of the left feature image match the right at an offset in [d0, d1] on a row
   // within 2 of `top`: a face's upper outline there (joinPlainFaces, splitGroundLinks)?
   bool outlineAt(const cv::Mat& left, const cv::Mat& right, int top, int x, int d0, int d1) const;
