@@ -1501,12 +1501,34 @@ int ObstacleExtractor::dropRemnants(cv::Mat& labels, std::vector<ObstacleCluster
   return dropped;
 }
 
+bool ObstacleExtractor::standsAt(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
+                                 const cv::Mat& labels, int y, int x, int d) const {
+  constexpr int kNone = std::numeric_limits<int>::max();
+  const std::uint8_t label = labels.ptr<std::uint8_t>(y)[x];
+  const bool candidate = label == kLabelGround || label == kLabelBackground ||
+                         (label == kLabelUnassigned && params_.stride_unassigned);
+  if (!candidate || x < kSadHalfWidth || x + kSadHalfWidth >= left.cols) return false;
+  const float line = ground.lineOffsetAt(y, static_cast<float>(x));
+  const std::uint8_t* l = left.ptr<std::uint8_t>(y);
+  const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+  const int at_offset = standingCost(l, r, x, d, line, static_cast<float>(params_.plain_side_contact_px),
+                                     params_.stride_max_cost, params_.stride_cost_margin, kNone);
+  if (at_offset == kNone) return false;
+  // Unique: lower by stride_unique_margin than at every other offset from 8 below the smaller of
+  // the two to 8 above the larger.
+  const int li = static_cast<int>(std::lround(line));
+  for (int e = std::max(0, std::min(li, d) - 8); e <= std::max(li, d) + 8; ++e) {
+    if (std::abs(e - d) <= 2 || x - e - kSadHalfWidth < 0) continue;
+    if (sadAt(l, r, x, e) < at_offset + params_.stride_unique_margin) return false;
+  }
+  return true;
+}
+
 int ObstacleExtractor::extendStrides(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
                                      const cv::Mat& labels, std::vector<ObstacleCluster>& obstacles,
                                      double baseline_m) const {
   if (!params_.extend_strides || !(baseline_m > 0.0)) return 0;
   const int cols = left.cols;
-  constexpr int kNone = std::numeric_limits<int>::max();
   std::array<int, 256> offset_of_label{};
   offset_of_label.fill(-1);
   for (const ObstacleCluster& o : obstacles)
@@ -1518,26 +1540,7 @@ int ObstacleExtractor::extendStrides(const cv::Mat& left, const cv::Mat& right, 
     const double height_m = static_cast<double>(o.box.height) * baseline_m / d;
     if (height_m < params_.weak_min_height_m || height_m > params_.weak_max_height_m) continue;
     const int y0 = std::max(0, o.box.y), y1 = std::min(left.rows - 1, o.box.y + o.box.height - 1);
-    // Does the ground or background feature at (y, x) stand at d?
-    auto stands = [&](int y, int x) {
-      const std::uint8_t label = labels.ptr<std::uint8_t>(y)[x];
-      const bool candidate = label == kLabelGround || label == kLabelBackground ||
-                             (label == kLabelUnassigned && params_.stride_unassigned);
-      if (!candidate || x < kSadHalfWidth || x + kSadHalfWidth >= cols)
-        return false;
-      const float line = ground.lineOffsetAt(y, static_cast<float>(x));
-      const std::uint8_t* l = left.ptr<std::uint8_t>(y);
-      const std::uint8_t* r = right.ptr<std::uint8_t>(y);
-      const int at_offset = standingCost(l, r, x, d, line, static_cast<float>(params_.plain_side_contact_px),
-                                         params_.stride_max_cost, params_.stride_cost_margin, kNone);
-      if (at_offset == kNone) return false;
-      const int li = static_cast<int>(std::lround(line));
-      for (int e = std::max(0, std::min(li, d) - 8); e <= std::max(li, d) + 8; ++e) {
-        if (std::abs(e - d) <= 2 || x - e - kSadHalfWidth < 0) continue;
-        if (sadAt(l, r, x, e) < at_offset + params_.stride_unique_margin) return false;
-      }
-      return true;
-    };
+    auto stands = [&](int y, int x) { return standsAt(left, right, ground, labels, y, x, d); };
     auto standing = [&](int x) {
       int n = 0;
       for (int y = y0; y <= y1 && n < params_.stride_min_pixels; ++y) n += stands(y, x);
@@ -1821,6 +1824,27 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
       while (a < b && skirtOnly(o, a)) ++a;
       while (b > a && skirtOnly(o, b)) --b;
       if (b - a + 1 >= params_.min_width_px && (a != o.box.x || b != o.box.x + o.box.width - 1)) {
+        trimmed += o.box.width - (b - a + 1);
+        narrowTo(o, a, b, labels);
+      }
+    }
+    if (params_.thin_min_aspect > 0.0 && o.box.height >= params_.thin_min_aspect * o.box.width) {
+      // A thin obstacle (a pole, a post) fills its own columns top to bottom: side columns holding
+      // less than thin_side_share of its fullest column's pixels are residue beside it (ground
+      // texture near the horizon, chance matches of the hills), which the plain-side trim below,
+      // limited to the outline's reach, leaves when they pin an offset.
+      auto count = [&](int x) {
+        int n = 0;
+        for (int y = o.box.y; y < o.box.y + o.box.height; ++y) n += labels.ptr<std::uint8_t>(y)[x] == o.label ? 1 : 0;
+        return n;
+      };
+      int fullest = 0;
+      for (int x = o.box.x; x < o.box.x + o.box.width; ++x) fullest = std::max(fullest, count(x));
+      const double least = params_.thin_side_share * fullest;
+      int a = o.box.x, b = o.box.x + o.box.width - 1;
+      while (a < b && count(a) < least) ++a;
+      while (b > a && count(b) < least) --b;
+      if (a != o.box.x || b != o.box.x + o.box.width - 1) {
         trimmed += o.box.width - (b - a + 1);
         narrowTo(o, a, b, labels);
       }

@@ -102,6 +102,8 @@ struct ObstacleParams {
   int foreign_min_step_px = 2;     // a pixel matching best this far from the obstacle's offset or farther ...
   double foreign_min_depth_m = 1.0;  // ... and this far in depth is another object's
   double foreign_max_share = 0.7;    // largest share of a box's width trimmed
+  double thin_min_aspect = 5.0;     // obstacles this many times taller than wide are thin (0: none) ...
+  double thin_side_share = 0.1;    // ... and lose side columns holding less than this share of the fullest's pixels
   bool trim_foot_skirt = true;     // side columns holding the obstacle's pixels at its foot only are trimmed
   // A person joined to something at the same offset by a link along the ground (the ground's
   // residue at their common foot row, a shadow's edge) is split there; person-sized parts are kept.
@@ -207,6 +209,11 @@ struct ObstacleParams {
             "distance from the obstacle's offset at which a best match is another object's ...");
     v.field("foreign_min_depth_m", foreign_min_depth_m, 0.0, 100.0, "metres", "... and in depth");
     v.field("foreign_max_share", foreign_max_share, 0.0, 1.0, "", "largest share of a box's width trimmed");
+    v.field("thin_min_aspect", thin_min_aspect, 0.0, 100.0, "",
+            "an obstacle this many times taller than wide is thin (a pole): its sparse side columns are trimmed; "
+            "0: never");
+    v.field("thin_side_share", thin_side_share, 0.0, 1.0, "",
+            "a thin obstacle's side column holding less than this share of its fullest column's pixels is trimmed");
     v.field("trim_foot_skirt", trim_foot_skirt, 0, 1, "",
             "trim side columns whose pixels of the obstacle all lie at its foot (ground residue beside it)");
     v.field("split_ground_links", split_ground_links, 0, 1, "",
@@ -308,7 +315,9 @@ class ObstacleExtractor {
   // (plain_side_contact_px) pin nothing. Before that, with `ground`, an obstacle at one offset
   // (within twice offset_tolerance_px) loses the side columns holding its pixels at its foot and
   // none above it that pins the offset (trim_foot_skirt: the ground's residue beside the foot),
-  // as far as they reach. Returns the number of columns trimmed.
+  // as far as they reach, and a thin obstacle (thin_min_aspect) loses the side columns holding
+  // less than thin_side_share of its fullest column's pixels. Returns the number of columns
+  // trimmed.
   int trimPlainSides(const cv::Mat& left, cv::Mat& labels, std::vector<ObstacleCluster>& obstacles,
                      const GroundProfile* ground = nullptr) const;
 
@@ -493,6 +502,10 @@ class ObstacleExtractor {
   // Does column x of the left feature image match the right at an offset in [d0, d1] on a row
   // within 2 of `top`: a face's upper outline there (joinPlainFaces, splitGroundLinks)?
   bool outlineAt(const cv::Mat& left, const cv::Mat& right, int top, int x, int d0, int d1) const;
+  // Does the ground, background or (stride_unassigned) unassigned feature at (y, x) stand at
+  // offset d (extendStrides' test)?
+  bool standsAt(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, const cv::Mat& labels, int y,
+                int x, int d) const;
   // Is (y, x) at obstacle o's foot: the ground's offset there within plain_side_contact_px of o's?
   bool atFoot(const GroundProfile& ground, const ObstacleCluster& o, int y, int x) const;
   // Obstacle i takes in `reach` and the obstacles mostly inside it whose offsets meet

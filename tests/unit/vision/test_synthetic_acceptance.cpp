@@ -787,6 +787,16 @@ TEST(SyntheticObstacles, PeopleJoinedAlongTheGroundAreSplit) {
   expectFound("Car", 4, 587);
 }
 
+// A thin pole fills its own columns top to bottom; beside it, residue near the horizon (seed 8:
+// three columns holding 8-9 pixels each against the pole's 70) pins an offset and outlasts the
+// plain-side trim's 3-column reach. Thin obstacles lose the side columns holding less than a
+// tenth of their fullest column's pixels: seed 8's and seed 141's poles reach IoU 0.5 then.
+TEST(SyntheticObstacles, ThinPolesLoseTheirSparseSideColumns) {
+  SegmenterParams untrimmed;
+  untrimmed.obstacles.thin_min_aspect = 0.0;
+  expectFoundOnlyWithTheStep(untrimmed, "Misc", {{8, 1033}, {141, 138}});
+}
+
 // A link's columns count as a plain face's (its upper outline crossing them) only when they are
 // plain: textured hills behind a link match along the box's top by chance, and seed 33's two far
 // people 1.7 px apart, seed 541's person joined to the ground's residue, stayed joined. The
