@@ -81,9 +81,10 @@ sanitizer_tests() {
   # Called as `sanitizer_tests || status=1`, where set -e does not apply: every step says so itself.
   sg_ccache cmake --build "$dir" -j "$jobs" || return 1
   say "running the unit and integration tests under ASan + UBSan"
-  # Two statistics over many seeds take 2.5 minutes under the sanitizers; they go through
+  # The statistics over many seeds (two of them the obstacle and people acceptance tests) take
+  # minutes each under the sanitizers; they go through
   # the same stages as the shorter synthetic tests run here, so they run in the main tree only.
-  local slow_statistics='FarPeopleBelowTheObstacleThresholdsComeOutAsPersonSizedClusters|FarPeopleWithoutAClusterAreFoundStandingOnTheGround|RecallFalsePositivesDistanceAndFeetRow'
+  local slow_statistics='FarPeopleBelowTheObstacleThresholdsComeOutAsPersonSizedClusters|FarPeopleWithoutAClusterAreFoundStandingOnTheGround|RecallFalsePositivesDistanceAndFeetRow|RecallAndSpuriousOverManySeeds'
   ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1} \
   UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1} \
     ctest --test-dir "$dir" -j "$jobs" -L 'unit|integration' -E "containers_static_checks|$slow_statistics" \

@@ -485,6 +485,8 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
                         ? focal_px * baseline_m / params_.max_range_m
                         : 0.0;
   banned_.assign(static_cast<std::size_t>(offsets), 0);
+  floating_.clear();
+  floating_.reserve(static_cast<std::size_t>(std::max(0, params_.max_iterations)));
   row_median_.assign(static_cast<std::size_t>(rows), 0);
   median_stale_.assign(static_cast<std::size_t>(rows), 1);
   mask_stale_.assign(static_cast<std::size_t>(rows), 0);
@@ -1234,6 +1236,9 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
       absorbInto(*below);
       continue;
     }
+    if (floating && !unmatched && significant && box.height >= params_.min_height_px &&
+        box.width >= params_.min_width_px && static_cast<int>(floating_.size()) < params_.max_iterations)
+      floating_.push_back(FloatingPart{box, best, dmin, dmax});
     if (floating || unmatched || !significant || box.height < params_.min_height_px || box.width < params_.min_width_px) {
       rejectCandidate(cv::Rect(cx.lo, cy.lo, cx.hi - cx.lo + 1, cy.hi - cy.lo + 1) | box);
       continue;
@@ -1860,6 +1865,42 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
     narrowTo(o, x0, x1, labels);
   }
   return trimmed;
+}
+
+int ObstacleExtractor::joinStackedParts(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels,
+                                        std::vector<ObstacleCluster>& obstacles, double focal_baseline) {
+  if (!params_.join_stacked_parts || !(focal_baseline > 0.0)) return 0;
+  const int tol = params_.offset_tolerance_px;
+  int joins = 0;
+  for (const FloatingPart& f : floating_) {
+    const int bottom = f.box.y + f.box.height - 1;
+    const int reach = std::max(params_.contact_tolerance_px, static_cast<int>(0.1 * f.box.height));
+    for (ObstacleCluster& o : obstacles) {
+      if (o.min_offset_px <= f.max_offset + tol) continue;  // the part below must be nearer
+      if (focal_baseline / f.offset - focal_baseline / o.offset_px > params_.stacked_max_depth_m) continue;
+      if (std::abs(o.box.y - bottom) > reach) continue;    // resting on its top
+      if (std::min(o.box.x + o.box.width, f.box.x + f.box.width) <= std::max(o.box.x, f.box.x)) continue;
+      // The part's pixels (the rejection left them unassigned) that match at its offsets join.
+      for (int y = f.box.y; y <= bottom; ++y) {
+        std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+        const std::uint8_t* l = left.ptr<std::uint8_t>(y);
+        const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+        for (int x = f.box.x; x < f.box.x + f.box.width; ++x) {
+          if (lab[x] != kLabelUnassigned) continue;
+          if (!matchAt(l, r, x, std::max(0, f.min_offset - tol), f.max_offset + tol, params_.grey_tolerance,
+                       params_.match_half_window_px, left.cols))
+            continue;
+          lab[x] = static_cast<std::uint8_t>(o.label);
+          ++o.feature_count;
+        }
+      }
+      o.box |= f.box;
+      o.min_offset_px = std::min(o.min_offset_px, f.min_offset);
+      ++joins;
+      break;
+    }
+  }
+  return joins;
 }
 
 int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,

@@ -111,6 +111,8 @@ struct ObstacleParams {
   double link_min_part_width_m = 0.2;  // narrowest part kept as a person's (seen from the side, the chest's depth)
   bool link_keep_parts = true;         // the other person-sized parts become obstacles of their own
   bool link_plain_outline = true;      // only plain link columns count as a face's upper outline
+  bool join_stacked_parts = true;      // a floating part resting on a nearer obstacle joins it ...
+  double stacked_max_depth_m = 2.5;    // ... when at most this much farther (a vehicle's cabin behind its tail)
   bool join_plain_faces = true;
   double plain_max_feature_fraction = 0.05;  // share of the gap's inner pixels that are features pinning an
                                              // offset (not along a horizontal edge) up to which it is plain;
@@ -224,6 +226,10 @@ struct ObstacleParams {
             "the other parts between links that have a person's size become obstacles of their own");
     v.field("link_plain_outline", link_plain_outline, 0, 1, "",
             "a link column counts as a plain face's (its upper outline matching) only when it is plain");
+    v.field("join_stacked_parts", join_stacked_parts, 0, 1, "",
+            "a candidate rejected as floating that rests on a nearer obstacle joins it (a vehicle's cabin)");
+    v.field("stacked_max_depth_m", stacked_max_depth_m, 0.0, 100.0, "metres",
+            "largest depth step between a floating part and the obstacle it rests on");
     v.field("join_plain_faces", join_plain_faces, 0, 1, "", "join the two sides of a plain face");
     v.field("plain_max_feature_fraction", plain_max_feature_fraction, 0.0, 1.0, "",
             "share of the gap that is features pinning an offset (not horizontal edges; one side only: "
@@ -347,6 +353,11 @@ class ObstacleExtractor {
   // row) is a plane passing the camera at least receding_min_lateral_m to the side, and the top
   // outline between them matches those offsets. Only on frames whose ground line was measured.
   // Returns the number of joins.
+  // A part rejected as floating that rests on a nearer obstacle (a vehicle's cabin, set back
+  // above its body) joins it (ObstacleParams::join_stacked_parts). Returns the joins made.
+  int joinStackedParts(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels,
+                       std::vector<ObstacleCluster>& obstacles, double focal_baseline);
+
   int joinRecedingParts(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
                         std::vector<ObstacleCluster>& obstacles, double baseline_m);
 
@@ -470,6 +481,11 @@ class ObstacleExtractor {
   std::vector<std::uint8_t> cleared_;     // a row's cleared left pixels (their grey values), else 0
   std::vector<int> removed_counts_;       // their matches per offset
   std::vector<std::uint8_t> banned_;  // offsets that gave nothing this frame
+  struct FloatingPart {
+    cv::Rect box;
+    int offset = 0, min_offset = 0, max_offset = 0;
+  };
+  std::vector<FloatingPart> floating_;  // candidates rejected as floating above their contact this frame
   static constexpr std::uint8_t kCellUnknown = 0, kCellInactive = 1, kCellActive = 2;
   struct Cell {
     std::uint8_t state = kCellUnknown;

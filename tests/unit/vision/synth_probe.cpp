@@ -70,24 +70,8 @@ int main(int argc, char** argv) {
     if (std::getenv("EXEMPT")) seg.setRemovalExemptions(&pair.truth->object_id);
     segmentPair(fx, seg, pair.left, pair.right, pair.rig, r);
     const SceneTruth& t = *pair.truth;
-    // Left pixels the right camera sees too: on its row, no left pixel with a larger disparity
-    // lands on the same right column (a left-right occlusion test on the true disparities).
-    cv::Mat seen_right(t.disparity.size(), CV_8UC1, cv::Scalar(1));
-    for (int y = 0; y < t.disparity.rows; ++y) {
-      std::vector<float> nearest(static_cast<std::size_t>(t.disparity.cols), -1.0f);
-      for (int x = 0; x < t.disparity.cols; ++x) {
-        const float d = t.disparity.at<float>(y, x);
-        const int xr = static_cast<int>(std::lround(x - d));
-        if (xr < 0 || xr >= t.disparity.cols) { seen_right.at<std::uint8_t>(y, x) = 0; continue; }
-        nearest[static_cast<std::size_t>(xr)] = std::max(nearest[static_cast<std::size_t>(xr)], d);
-      }
-      for (int x = 0; x < t.disparity.cols; ++x) {
-        const float d = t.disparity.at<float>(y, x);
-        const int xr = static_cast<int>(std::lround(x - d));
-        if (xr >= 0 && xr < t.disparity.cols && nearest[static_cast<std::size_t>(xr)] > d + 0.75f)
-          seen_right.at<std::uint8_t>(y, x) = 0;
-      }
-    }
+    // Left pixels the right camera sees too (a left-right occlusion test on the true disparities).
+    const cv::Mat seen_right = test::seenByTheRightCamera(t.disparity);
     int rows = 0, ok = 0;
     for (std::size_t y = 0; y < t.ground_offset_per_row.size(); ++y) {
       if (!std::isfinite(t.ground_offset_per_row[y])) continue;

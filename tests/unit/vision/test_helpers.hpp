@@ -130,4 +130,44 @@ inline bool clusterFindsObject(const ObstacleCluster& c, const cv::Rect& box, do
   return iou(c.box, box) >= 0.5 && (centre || visible);
 }
 
+// Left pixels the right camera sees too (1) or not (0): a left-right occlusion test on the true
+// disparities. A pixel is hidden when its right-image column lies outside the image or a left
+// pixel of the same row with a larger disparity (by more than 0.75) lands on that column.
+inline cv::Mat seenByTheRightCamera(const cv::Mat& disparity) {
+  cv::Mat seen(disparity.size(), CV_8UC1, cv::Scalar(1));
+  std::vector<float> nearest(static_cast<std::size_t>(disparity.cols));
+  for (int y = 0; y < disparity.rows; ++y) {
+    std::fill(nearest.begin(), nearest.end(), -1.0f);
+    const float* d = disparity.ptr<float>(y);
+    std::uint8_t* s = seen.ptr<std::uint8_t>(y);
+    for (int x = 0; x < disparity.cols; ++x) {
+      const int xr = static_cast<int>(std::lround(x - d[x]));
+      if (xr < 0 || xr >= disparity.cols) {
+        s[x] = 0;
+        continue;
+      }
+      nearest[static_cast<std::size_t>(xr)] = std::max(nearest[static_cast<std::size_t>(xr)], d[x]);
+    }
+    for (int x = 0; x < disparity.cols; ++x) {
+      const int xr = static_cast<int>(std::lround(x - d[x]));
+      if (xr >= 0 && xr < disparity.cols && nearest[static_cast<std::size_t>(xr)] > d[x] + 0.75f) s[x] = 0;
+    }
+  }
+  return seen;
+}
+
+// Share of object `index`'s visible (left) pixels that the right camera sees too (0 when none is
+// visible).
+inline double shareSeenByTheRightCamera(const cv::Mat& seen, const cv::Mat& object_id, std::size_t index) {
+  const int id = 2 + static_cast<int>(index);
+  int visible = 0, both = 0;
+  for (int y = 0; y < object_id.rows; ++y)
+    for (int x = 0; x < object_id.cols; ++x) {
+      if (object_id.at<std::uint16_t>(y, x) != id) continue;
+      ++visible;
+      both += seen.at<std::uint8_t>(y, x);
+    }
+  return visible > 0 ? static_cast<double>(both) / visible : 0.0;
+}
+
 }  // namespace sg::test
