@@ -481,6 +481,8 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
   const int tol = params_.offset_tolerance_px;
   const int half = params_.match_half_window_px;
   obstacles.clear();
+  // Capacity for every obstacle a frame can hold (the steps after the loop append split parts).
+  obstacles.reserve(static_cast<std::size_t>(std::max(0, params_.max_obstacles)));
   nearest_offset_ = params_.max_range_m > 0.0 && baseline_m > 0.0 && focal_px > 0.0
                         ? focal_px * baseline_m / params_.max_range_m
                         : 0.0;
@@ -1677,7 +1679,6 @@ int ObstacleExtractor::splitGroundLinks(const cv::Mat& left, const cv::Mat& righ
   link_parts_.reserve(static_cast<std::size_t>(cols));  // a part per column at most
   split_off_.clear();
   split_off_.reserve(static_cast<std::size_t>(std::max(0, params_.max_obstacles)));
-  obstacles.reserve(static_cast<std::size_t>(std::max(0, params_.max_obstacles)));
   for (ObstacleCluster& o : obstacles) {
     if (o.offset_px <= 0 || !atOneOffset(o)) continue;
     // The obstacle's pixels above its foot, per column.
@@ -1736,9 +1737,7 @@ int ObstacleExtractor::splitGroundLinks(const cv::Mat& left, const cv::Mat& righ
       ++link_columns;
       // With `link_plain_outline`, only a plain column (at most a quarter of its inner rows
       // features) can be a face's: textured hills behind a link match along the top by chance.
-      if (params_.link_plain_outline &&
-          4 * featuresInColumn(labels, o.box.x + k, inner_top, inner_bottom) > inner_bottom - inner_top + 1)
-        continue;
+      if (params_.link_plain_outline && !plainColumn(labels, o.box.x + k, inner_top, inner_bottom)) continue;
       outlined += outlineAt(left, right, o.box.y, o.box.x + k, d0, d1) ? 1 : 0;
     }
     if (outlined >= params_.plain_min_outline_fraction * link_columns) continue;
@@ -1868,7 +1867,7 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
 }
 
 int ObstacleExtractor::joinStackedParts(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels,
-                                        std::vector<ObstacleCluster>& obstacles, double focal_baseline) {
+                                        std::vector<ObstacleCluster>& obstacles, double focal_baseline) const {
   if (!params_.join_stacked_parts || !(focal_baseline > 0.0)) return 0;
   const int tol = params_.offset_tolerance_px;
   int joins = 0;

@@ -356,7 +356,7 @@ class ObstacleExtractor {
   // A part rejected as floating that rests on a nearer obstacle (a vehicle's cabin, set back
   // above its body) joins it (ObstacleParams::join_stacked_parts). Returns the joins made.
   int joinStackedParts(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels,
-                       std::vector<ObstacleCluster>& obstacles, double focal_baseline);
+                       std::vector<ObstacleCluster>& obstacles, double focal_baseline) const;
 
   int joinRecedingParts(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
                         std::vector<ObstacleCluster>& obstacles, double baseline_m);
