@@ -2265,7 +2265,10 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
           continue;
         const int xs = dir > 0 ? a.box.x + a.box.width - 1 : a.box.x;
         const int n_cols = dir > 0 ? cols - 1 - xs : xs;
-        if (n_cols < std::max(16, 2 * a.box.width)) continue;
+        // A wide part (much of the face's far half textured) may leave fewer columns to the border
+        // than its own width; the outline's hypotheses are tested over those columns all the same.
+        const double walk_widths = params_.plain_outline_min_walk_widths * a.box.width;
+        if (n_cols < std::max(16.0, walk_widths)) continue;
         // Plain beside the part over its rows (6 of the next 8 columns): the face shows no texture.
         int plain_columns = 0;
         for (int j = 1; j <= 8; ++j)
@@ -2299,7 +2302,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
             }
             if (o.tested % 20 == 0 && 5 * hits < 2 * o.tested) break;  // below 40 %: hopeless
           }
-          if (!out_of_view || o.end < 0 || o.tested < std::max(8, a.box.width)) return;
+          if (!out_of_view || o.end < 0 || o.tested < std::max(8.0, walk_widths / 2)) return;
           o.frac = static_cast<double>(hits) / o.tested;
           if (o.frac < params_.plain_min_outline_fraction || o.frac < best.frac ||
               (o.frac == best.frac && o.tested <= best.tested))

@@ -123,6 +123,8 @@ struct ObstacleParams {
   bool plain_one_sided = true;               // a face with one side found reaches as far as its top outline
   bool plain_outline_faces = true;           // a plain face receding out of view grows from a part found at
                                              // its far end along its top outline (offset linear along it)
+  double plain_outline_min_walk_widths = 0.0;  // columns out to the border, in the part's widths, it needs
+                                               // (the outline tested on half as many); 0: any part
   // A long face receding in depth (a wall along the road, a vehicle's side) with too little
   // texture for the loop's growth comes out as parts at different offsets along it.
   bool join_receding_parts = true;
@@ -239,6 +241,8 @@ struct ObstacleParams {
     v.field("plain_max_width_m", plain_max_width_m, 0.0, 1000.0, "metres", "widest plain gap joined");
     v.field("plain_outline_faces", plain_outline_faces, 0, 1, "",
             "grow a part along the top outline of a plain face receding out of view");
+    v.field("plain_outline_min_walk_widths", plain_outline_min_walk_widths, 0.0, 100.0, "",
+            "columns from the part to the image's side that a face out of view needs, in the part's widths");
     v.field("join_receding_parts", join_receding_parts, 0, 1, "",
             "join parts of a face receding in depth whose top outline runs between them at the offsets of the "
             "line through theirs");
