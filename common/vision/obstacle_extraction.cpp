@@ -2269,11 +2269,13 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         // than its own width; the outline's hypotheses are tested over those columns all the same.
         const double walk_widths = params_.plain_outline_min_walk_widths * a.box.width;
         if (n_cols < std::max(16.0, walk_widths)) continue;
-        // Plain beside the part over its rows (6 of the next 8 columns): the face shows no texture.
+        // Plain beside the part over its rows (plain_outline_min_plain_columns of the next 8): the
+        // face shows little texture there. (The part's own side may reach a few columns past its
+        // box: the plain area below the outline, tested with each hypothesis, is what tells.)
         int plain_columns = 0;
         for (int j = 1; j <= 8; ++j)
           plain_columns += plainColumn(labels, xs + dir * j, a.box.y, a.box.y + a.box.height - 1);
-        if (plain_columns < 6) continue;
+        if (plain_columns < params_.plain_outline_min_plain_columns) continue;
         const double ca = contactOf(da, xs);
         Outline best;
         // One hypothesis: the face's top at the part in row ys, its offset slope k.

@@ -125,6 +125,7 @@ struct ObstacleParams {
                                              // its far end along its top outline (offset linear along it)
   double plain_outline_min_walk_widths = 0.0;  // columns out to the border, in the part's widths, it needs
                                                // (the outline tested on half as many); 0: any part
+  int plain_outline_min_plain_columns = 2;     // of the 8 columns beside the part, how many must be plain
   // A long face receding in depth (a wall along the road, a vehicle's side) with too little
   // texture for the loop's growth comes out as parts at different offsets along it.
   bool join_receding_parts = true;
@@ -243,6 +244,8 @@ struct ObstacleParams {
             "grow a part along the top outline of a plain face receding out of view");
     v.field("plain_outline_min_walk_widths", plain_outline_min_walk_widths, 0.0, 100.0, "",
             "columns from the part to the image's side that a face out of view needs, in the part's widths");
+    v.field("plain_outline_min_plain_columns", plain_outline_min_plain_columns, 0, 8, "columns",
+            "of the 8 columns beside a part grown along a face's top outline, how many must be plain");
     v.field("join_receding_parts", join_receding_parts, 0, 1, "",
             "join parts of a face receding in depth whose top outline runs between them at the offsets of the "
             "line through theirs");

@@ -864,6 +864,15 @@ TEST(SyntheticObstacles, WidePartsGrowAlongTheTopOutlineToTheBorder) {
   expectFoundOnlyWithTheStep(long_walks_only, "Car", {{183, 993}});
 }
 
+// Beside a part at a wall's far end, a few columns of its own side often still hold texture (seeds
+// 363 and 431: fewer than 6 of the 8 columns beside the part plain). Two plain columns of eight
+// suffice; the plain area below the predicted outline is tested with every hypothesis anyway.
+TEST(SyntheticObstacles, FacesOutOfViewNeedFewPlainColumnsBesideThePart) {
+  SegmenterParams six_plain;
+  six_plain.obstacles.plain_outline_min_plain_columns = 6;
+  expectFoundOnlyWithTheStep(six_plain, "Misc", {{363, 701}, {431, 718}});
+}
+
 // On scenes where receding walls are joined, the parallel segmentation (the obstacle loop's
 // vector row matches among its fast paths) gives the serial reference's labels and obstacles.
 TEST(SyntheticObstacles, JoinedFacesMatchTheSerialReference) {
