@@ -1916,6 +1916,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
   const int cols = left.cols;
   const int tol = params_.offset_tolerance_px;
   hidden_columns_.reserve(static_cast<std::size_t>(cols));  // any gap is narrower than the image
+  outline_hits_.reserve(static_cast<std::size_t>(cols));
   int joins = 0;
   for (std::size_t i = 0; i < obstacles.size(); ++i) {
     for (const int dir : {+1, -1}) {
@@ -2276,19 +2277,44 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         for (int j = 1; j <= 8; ++j)
           plain_columns += plainColumn(labels, xs + dir * j, a.box.y, a.box.y + a.box.height - 1);
         if (plain_columns < params_.plain_outline_min_plain_columns) continue;
-        const double ca = contactOf(da, xs);
+        // The face's offset at the part's side: the part's own (its dominant offset) for a face out
+        // of view; for one ending in view the part's nearest offset (a receding part is nearest
+        // at the side the walk leaves from, and its dominant offset may lie several pixels below).
+        int d_side = da;
+        double ca = contactOf(d_side, xs);
         Outline best;
         // One hypothesis: the face's top at the part in row ys, its offset slope k.
         int best_ys = -1;
-        auto evaluate = [&](int ys, double k) {
+        // Below the outline at column x (offset d there): the face's rows without a margin at its
+        // top and foot, and how many of their features do not match d.
+        auto belowOutline = [&](int x, double d, double h, long& area, long& other) {
+          const double c = contactOf(d, x);
+          const double yt = c - h * d / baseline_m;
+          const int m = std::max(2, static_cast<int>((c - yt) / 8));
+          const int y_last = std::min(rows - 1, static_cast<int>(std::lround(c)) - m);
+          for (int y = std::max(0, static_cast<int>(std::lround(yt)) + m); y <= y_last; ++y) {
+            ++area;
+            if (labels.ptr<std::uint8_t>(y)[x] == kLabelNone) continue;
+            other += !onFaceAt(y, x, d);
+          }
+        };
+        // With `in_view`, a face that ends inside the image (its near end in view): the walk's
+        // outline goes on past the end over the ground and the hills, where features match the
+        // predicted offset by chance in about half the columns, so the end is where the face
+        // below the outline gives way to texture (two sampled columns in a row where more than
+        // half of the rows are features not matching the face's offset), at the
+        // last outline hit before it, and a vertical outline there (the face's near end) must
+        // match the end's offset over at least half of the face's rows.
+        auto evaluate = [&](int ys, double k, bool in_view) {
           if (ys < 0 || ys > a.box.y + 2) return;
-          const double h = (ca - ys) * baseline_m / da;
+          const double h = (ca - ys) * baseline_m / d_side;
           if (h < 0.5) return;
           Outline o{k, h, 0.0, -1, 0};
           int hits = 0;
           bool out_of_view = false;  // the outline reached the image's side or top
+          outline_hits_.clear();
           for (int j = 2; j <= n_cols; j += 2) {  // every second column
-            const double d = da + k * j;
+            const double d = d_side + k * j;
             if (d > max_offset) break;
             const int x = xs + dir * j;
             const double yt = contactOf(d, x) - h * d / baseline_m;
@@ -2298,37 +2324,76 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
             }
             out_of_view = j + 2 > n_cols;
             ++o.tested;
-            if (outlineHit(x, yt, d)) {
+            const bool hit = outlineHit(x, yt, d);
+            outline_hits_.push_back(hit ? 1 : 0);
+            if (hit) {
               ++hits;
               o.end = x;
             }
             if (o.tested % 20 == 0 && 5 * hits < 2 * o.tested) break;  // below 40 %: hopeless
           }
-          if (!out_of_view || o.end < 0 || o.tested < std::max(8.0, walk_widths / 2)) return;
+          if (o.end < 0) return;
+          if (!in_view) {
+            if (!out_of_view || o.tested < std::max(8.0, walk_widths / 2)) return;
+          } else {
+            const int n_tested = static_cast<int>(outline_hits_.size());
+            int stop = n_tested, first_bad = -1;
+            for (int t = 1; t < n_tested; t += 2) {  // every fourth column
+              const int j = 2 * (t + 1);
+              long area = 0, other = 0;
+              belowOutline(xs + dir * j, d_side + k * j, h, area, other);
+              if (area > 0 && 2 * other <= area) {
+                first_bad = -1;
+              } else if (first_bad < 0) {
+                first_bad = t;
+              } else {
+                stop = first_bad;
+                break;
+              }
+            }
+            if (stop == n_tested && out_of_view) return;  // plain to the border: the case above
+            int last = -1, run = 0, hits_at_last = 0;
+            for (int t = 0; t < stop; ++t) {
+              run += outline_hits_[static_cast<std::size_t>(t)];
+              if (outline_hits_[static_cast<std::size_t>(t)] && run >= params_.plain_min_outline_fraction * (t + 1)) {
+                last = t;
+                hits_at_last = run;
+              }
+            }
+            if (last + 1 < std::max(8.0, walk_widths / 2)) return;
+            const int j_end = 2 * (last + 1);
+            const double d_end = d_side + k * j_end;
+            const int x_end = xs + dir * j_end;
+            const double c_end = contactOf(d_end, x_end);
+            const int y_top = std::max(0, static_cast<int>(std::lround(c_end - h * d_end / baseline_m)));
+            const int y_bottom = std::min(rows - 1, static_cast<int>(std::lround(c_end)));
+            if (y_bottom < y_top) return;
+            // The vertical outline lies between the last hit and the first textured column (+2).
+            const int x_stop = xs + dir * 2 * (std::min(stop, n_tested - 1) + 1);
+            const int xa = std::max(0, std::min(x_end, x_stop) - 2), xb = std::min(cols - 1, std::max(x_end, x_stop) + 2);
+            int edge_rows = 0;
+            for (int y = y_top; y <= y_bottom; ++y) {
+              bool on = false;
+              for (int x = xa; x <= xb && !on; ++x) on = onFaceAt(y, x, d_end);
+              edge_rows += on ? 1 : 0;
+            }
+            if (2 * edge_rows < y_bottom - y_top + 1) return;
+            o.tested = last + 1;
+            o.end = x_end;
+            hits = hits_at_last;
+          }
           o.frac = static_cast<double>(hits) / o.tested;
           if (o.frac < params_.plain_min_outline_fraction || o.frac < best.frac ||
               (o.frac == best.frac && o.tested <= best.tested))
             return;
           const int j_end = std::abs(o.end - xs);
-          const double d_end = da + k * j_end;
-          const double top_s = ca - h * da / baseline_m;
+          const double d_end = d_side + k * j_end;
+          const double top_s = ca - h * d_side / baseline_m;
           const double top_e = contactOf(d_end, o.end) - h * d_end / baseline_m;
-          if (d_end - da < 3.0 || std::abs(top_e - top_s) < std::max(6.0, 0.05 * j_end)) return;
+          if (d_end - d_side < 3.0 || std::abs(top_e - top_s) < std::max(6.0, 0.05 * j_end)) return;
           // Plain below the outline: few features there that do not match the face's offset.
           long area = 0, other = 0;
-          for (int j = 2; j <= j_end; j += 4) {
-            const double d = da + k * j;
-            const int x = xs + dir * j;
-            const double c = contactOf(d, x);
-            const double yt = c - h * d / baseline_m;
-            const int m = std::max(2, static_cast<int>((c - yt) / 8));
-            const int y_last = std::min(rows - 1, static_cast<int>(std::lround(c)) - m);
-            for (int y = static_cast<int>(std::lround(yt)) + m; y <= y_last; ++y) {
-              ++area;
-              if (labels.ptr<std::uint8_t>(y)[x] == kLabelNone) continue;
-              other += !onFaceAt(y, x, d);
-            }
-          }
+          for (int j = 2; j <= j_end; j += 4) belowOutline(xs + dir * j, d_side + k * j, h, area, other);
           if (area == 0 || other > params_.plain_max_feature_fraction * area) return;
           best = o;
           best_ys = ys;
@@ -2337,19 +2402,27 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         // (the part may be a piece of the face's end) down to its top; offset slopes from 0.01 to
         // 0.5 px per column (a wall along the line of sight 1.1 m to the side of the camera
         // changes by B / 1.1 m per column).
-        for (int ys = a.box.y + 2; ys >= std::max(0, a.box.y - a.box.height / 2); ys -= 3)
-          for (double k = 0.01; k <= 0.5; k *= 1.2) evaluate(ys, k);
-        if (best.end >= 0) {
-          const int ys_c = best_ys;
-          const double k_c = best.k;
-          for (int ys = ys_c - 2; ys <= ys_c + 2; ++ys)
-            for (double k = k_c / 1.2; k <= std::min(0.5, k_c * 1.2); k *= 1.05) evaluate(ys, k);
+        // Faces out of view first; a face ending in view only when none is found.
+        for (const bool in_view : {false, true}) {
+          if (best.end >= 0 || (in_view && !params_.plain_outline_near_end)) break;
+          if (in_view) {
+            d_side = std::max(d_side, a.max_offset_px);
+            ca = contactOf(d_side, xs);
+          }
+          for (int ys = a.box.y + 2; ys >= std::max(0, a.box.y - a.box.height / 2); ys -= 3)
+            for (double k = 0.01; k <= 0.5; k *= 1.2) evaluate(ys, k, in_view);
+          if (best.end >= 0) {
+            const int ys_c = best_ys;
+            const double k_c = best.k;
+            for (int ys = ys_c - 2; ys <= ys_c + 2; ++ys)
+              for (double k = k_c / 1.2; k <= std::min(0.5, k_c * 1.2); k *= 1.05) evaluate(ys, k, in_view);
+          }
         }
         if (best.end < 0) continue;
         // The part grows over the face; other obstacles on the face (at its offset where they
         // stand) fold into it, those in front of it stay apart.
         const int j_end = std::abs(best.end - xs);
-        const double d_end = da + best.k * j_end;
+        const double d_end = d_side + best.k * j_end;
         const double c_end = contactOf(d_end, best.end);
         const int top = static_cast<int>(std::lround(c_end - best.h * d_end / baseline_m));
         const int x0 = std::min(a.box.x, best.end), x1 = std::max(a.box.x + a.box.width - 1, best.end);
@@ -2361,7 +2434,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         // (Each fold renumbers the obstacles: the grown one is obstacles[i] again after it.)
         auto onFace = [&](const ObstacleCluster& o) {
           const double xc = o.box.x + 0.5 * (o.box.width - 1);
-          const double d = da + best.k * dir * (xc - xs);
+          const double d = d_side + best.k * dir * (xc - xs);
           return overlapOfSmaller(obstacles[i].box, o.box) >= params_.merge_overlap && std::abs(o.offset_px - d) <= tol + 1;
         };
         for (bool folded = true; folded;) {

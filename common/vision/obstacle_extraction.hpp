@@ -126,6 +126,8 @@ struct ObstacleParams {
   double plain_outline_min_walk_widths = 0.0;  // columns out to the border, in the part's widths, it needs
                                                // (the outline tested on half as many); 0: any part
   int plain_outline_min_plain_columns = 2;     // of the 8 columns beside the part, how many must be plain
+  bool plain_outline_near_end = true;   // a face that stays in view ends where its plain face gives way
+                                        // to texture, at a vertical outline matching its offset
   // A long face receding in depth (a wall along the road, a vehicle's side) with too little
   // texture for the loop's growth comes out as parts at different offsets along it.
   bool join_receding_parts = true;
@@ -246,6 +248,8 @@ struct ObstacleParams {
             "columns from the part to the image's side that a face out of view needs, in the part's widths");
     v.field("plain_outline_min_plain_columns", plain_outline_min_plain_columns, 0, 8, "columns",
             "of the 8 columns beside a part grown along a face's top outline, how many must be plain");
+    v.field("plain_outline_near_end", plain_outline_near_end, 0, 1, "",
+            "a face grown along its top outline may end in view, where it stops being plain, at a vertical outline");
     v.field("join_receding_parts", join_receding_parts, 0, 1, "",
             "join parts of a face receding in depth whose top outline runs between them at the offsets of the "
             "line through theirs");
@@ -516,6 +520,7 @@ class ObstacleExtractor {
   };
   std::vector<FaceColumn> face_columns_;
   std::vector<std::uint8_t> hidden_columns_;  // joinPlainFaces: gap columns behind a nearer obstacle
+  std::vector<std::uint8_t> outline_hits_;    // joinPlainFaces: per tested column, the outline matched
   std::vector<int> pixels_above_foot_;        // splitGroundLinks: an obstacle's pixels above its foot per column
   struct LinkPart {
     int a = 0, b = 0;  // columns relative to the box

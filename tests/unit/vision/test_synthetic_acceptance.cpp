@@ -722,8 +722,9 @@ TEST(SyntheticObstacles, RecedingWallIsOneObstacle) {
   }
   std::printf("long walls found: %d/%d with both joins, %d/%d joining plain faces only, %d/%d without\n", joined,
               walls, faces_only, walls, without, walls);
-  // Measured: 7 of 12 with either, none without (docs/method.md, plain and receding faces).
-  EXPECT_GE(faces_only, 7);
+  // Measured: 11 of 12 with either since faces grown along their top outline may end in view (7
+  // before), none without (docs/method.md, plain and receding faces).
+  EXPECT_GE(faces_only, 11);
   EXPECT_GE(joined, faces_only);
   EXPECT_GT(faces_only, without);
 }
@@ -871,6 +872,16 @@ TEST(SyntheticObstacles, FacesOutOfViewNeedFewPlainColumnsBesideThePart) {
   SegmenterParams six_plain;
   six_plain.obstacles.plain_outline_min_plain_columns = 6;
   expectFoundOnlyWithTheStep(six_plain, "Misc", {{363, 701}, {431, 718}});
+}
+
+// A wall whose near end is in view: the outline predicted past the end runs over the ground and
+// the hills, where features match its offset by chance in half the columns, but the face below it
+// turns from plain to textured there, and the wall's vertical end matches the end's offset. Seeds
+// 87, 243 and 508: walls 19-28 m away found as their far part only without the step.
+TEST(SyntheticObstacles, FacesGrownAlongTheirOutlineMayEndInView) {
+  SegmenterParams out_of_view_only;
+  out_of_view_only.obstacles.plain_outline_near_end = false;
+  expectFoundOnlyWithTheStep(out_of_view_only, "Misc", {{87, 701}, {243, 683}, {508, 681}});
 }
 
 // On scenes where receding walls are joined, the parallel segmentation (the obstacle loop's
