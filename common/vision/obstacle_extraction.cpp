@@ -2336,9 +2336,18 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
           if (!in_view) {
             if (!out_of_view || o.tested < std::max(8.0, walk_widths / 2)) return;
           } else {
+            // The farthest hit with enough of the outline matched up to it: no end lies beyond,
+            // and the face below the outline is sampled only that far (and 8 columns more).
             const int n_tested = static_cast<int>(outline_hits_.size());
-            int stop = n_tested, first_bad = -1;
-            for (int t = 1; t < n_tested; t += 2) {  // every fourth column
+            int reach = -1;
+            for (int t = 0, run = 0; t < n_tested; ++t) {
+              run += outline_hits_[static_cast<std::size_t>(t)];
+              if (outline_hits_[static_cast<std::size_t>(t)] && run >= params_.plain_min_outline_fraction * (t + 1)) reach = t;
+            }
+            if (reach + 1 < std::max(8.0, walk_widths / 2)) return;
+            const int scan_end = std::min(n_tested, reach + 5);
+            int stop = scan_end, first_bad = -1;
+            for (int t = 1; t < scan_end; t += 2) {  // every fourth column
               const int j = 2 * (t + 1);
               long area = 0, other = 0;
               belowOutline(xs + dir * j, d_side + k * j, h, area, other);
@@ -2353,7 +2362,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
             }
             if (stop == n_tested && out_of_view) return;  // plain to the border: the case above
             int last = -1, run = 0, hits_at_last = 0;
-            for (int t = 0; t < stop; ++t) {
+            for (int t = 0; t < std::min(stop, reach + 1); ++t) {
               run += outline_hits_[static_cast<std::size_t>(t)];
               if (outline_hits_[static_cast<std::size_t>(t)] && run >= params_.plain_min_outline_fraction * (t + 1)) {
                 last = t;
