@@ -2304,7 +2304,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         // below the outline gives way to texture (two sampled columns in a row where more than
         // half of the rows are features not matching the face's offset), at the
         // last outline hit before it, and a vertical outline there (the face's near end) must
-        // match the end's offset over at least half of the face's rows.
+        // match the end's offset over at least plain_near_end_edge_share of the face's rows.
         auto evaluate = [&](int ys, double k, bool in_view) {
           if (ys < 0 || ys > a.box.y + 2) return;
           const double h = (ca - ys) * baseline_m / d_side;
@@ -2386,7 +2386,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
               for (int x = xa; x <= xb && !on; ++x) on = onFaceAt(y, x, d_end);
               edge_rows += on ? 1 : 0;
             }
-            if (2 * edge_rows < y_bottom - y_top + 1) return;
+            if (edge_rows < params_.plain_near_end_edge_share * (y_bottom - y_top + 1)) return;
             o.tested = last + 1;
             o.end = x_end;
             hits = hits_at_last;

@@ -128,6 +128,7 @@ struct ObstacleParams {
   int plain_outline_min_plain_columns = 2;     // of the 8 columns beside the part, how many must be plain
   bool plain_outline_near_end = true;   // a face that stays in view ends where its plain face gives way
                                         // to texture, at a vertical outline matching its offset
+  double plain_near_end_edge_share = 0.33;  // ... on at least this share of the face's rows at the end
   // A long face receding in depth (a wall along the road, a vehicle's side) with too little
   // texture for the loop's growth comes out as parts at different offsets along it.
   bool join_receding_parts = true;
@@ -250,6 +251,8 @@ struct ObstacleParams {
             "of the 8 columns beside a part grown along a face's top outline, how many must be plain");
     v.field("plain_outline_near_end", plain_outline_near_end, 0, 1, "",
             "a face grown along its top outline may end in view, where it stops being plain, at a vertical outline");
+    v.field("plain_near_end_edge_share", plain_near_end_edge_share, 0.0, 1.0, "",
+            "share of the face's rows at an end in view where the vertical outline matches the end's offset");
     v.field("join_receding_parts", join_receding_parts, 0, 1, "",
             "join parts of a face receding in depth whose top outline runs between them at the offsets of the "
             "line through theirs");

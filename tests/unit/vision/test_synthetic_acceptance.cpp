@@ -876,12 +876,17 @@ TEST(SyntheticObstacles, FacesOutOfViewNeedFewPlainColumnsBesideThePart) {
 
 // A wall whose near end is in view: the outline predicted past the end runs over the ground and
 // the hills, where features match its offset by chance in half the columns, but the face below it
-// turns from plain to textured there, and the wall's vertical end matches the end's offset. Seeds
-// 87, 243 and 508: walls 19-28 m away found as their far part only without the step.
+// turns from plain to textured there, and the wall's vertical end matches the end's offset on a
+// third of the face's rows or more. Seeds 87, 243 and 508: walls 19-28 m away found as their far
+// part only without the step; seed 77's wall, whose end's outline matches on fewer than half of
+// its rows, is not found asking half of them.
 TEST(SyntheticObstacles, FacesGrownAlongTheirOutlineMayEndInView) {
   SegmenterParams out_of_view_only;
   out_of_view_only.obstacles.plain_outline_near_end = false;
   expectFoundOnlyWithTheStep(out_of_view_only, "Misc", {{87, 701}, {243, 683}, {508, 681}});
+  SegmenterParams half_of_the_rows;
+  half_of_the_rows.obstacles.plain_near_end_edge_share = 0.5;
+  expectFoundOnlyWithTheStep(half_of_the_rows, "Misc", {{77, 695}});
 }
 
 // On scenes where receding walls are joined, the parallel segmentation (the obstacle loop's
