@@ -2336,14 +2336,24 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
           if (!in_view) {
             if (!out_of_view || o.tested < std::max(8.0, walk_widths / 2)) return;
           } else {
-            // The farthest hit with enough of the outline matched up to it: no end lies beyond,
-            // and the face below the outline is sampled only that far (and 8 columns more).
+            // The last tested column before `limit` that is a hit with enough of the outline
+            // matched up to it (-1 when none), and the hits up to it.
             const int n_tested = static_cast<int>(outline_hits_.size());
-            int reach = -1;
-            for (int t = 0, run = 0; t < n_tested; ++t) {
-              run += outline_hits_[static_cast<std::size_t>(t)];
-              if (outline_hits_[static_cast<std::size_t>(t)] && run >= params_.plain_min_outline_fraction * (t + 1)) reach = t;
-            }
+            auto lastQualifying = [&](int limit, int& hits_up_to) {
+              int last = -1;
+              for (int t = 0, run = 0; t < limit; ++t) {
+                run += outline_hits_[static_cast<std::size_t>(t)];
+                if (outline_hits_[static_cast<std::size_t>(t)] && run >= params_.plain_min_outline_fraction * (t + 1)) {
+                  last = t;
+                  hits_up_to = run;
+                }
+              }
+              return last;
+            };
+            // The farthest such hit: no end lies beyond, and the face below the outline is
+            // sampled only that far (and 8 columns more).
+            int hits_at_last = 0;
+            const int reach = lastQualifying(n_tested, hits_at_last);
             if (reach + 1 < std::max(8.0, walk_widths / 2)) return;
             const int scan_end = std::min(n_tested, reach + 5);
             int stop = scan_end, first_bad = -1;
@@ -2361,14 +2371,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
               }
             }
             if (stop == n_tested && out_of_view) return;  // plain to the border: the case above
-            int last = -1, run = 0, hits_at_last = 0;
-            for (int t = 0; t < std::min(stop, reach + 1); ++t) {
-              run += outline_hits_[static_cast<std::size_t>(t)];
-              if (outline_hits_[static_cast<std::size_t>(t)] && run >= params_.plain_min_outline_fraction * (t + 1)) {
-                last = t;
-                hits_at_last = run;
-              }
-            }
+            const int last = stop > reach ? reach : lastQualifying(stop, hits_at_last);
             if (last + 1 < std::max(8.0, walk_widths / 2)) return;
             const int j_end = 2 * (last + 1);
             const double d_end = d_side + k * j_end;
