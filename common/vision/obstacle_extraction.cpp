@@ -6,6 +6,7 @@
 #include <array>
 #include <bit>
 #include <cmath>
+#include <climits>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -118,10 +119,12 @@ LabelMap unchangedLabels() {
   return map;
 }
 
-void relabel(cv::Mat& labels, const LabelMap& map) {
-  for (int y = 0; y < labels.rows; ++y) {
+// Maps every label inside `area` (the whole image by default).
+void relabel(cv::Mat& labels, const LabelMap& map, cv::Rect area = cv::Rect(0, 0, INT_MAX, INT_MAX)) {
+  area &= cv::Rect(0, 0, labels.cols, labels.rows);
+  for (int y = area.y; y < area.y + area.height; ++y) {
     std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
-    for (int c = 0; c < labels.cols; ++c) lab[c] = map[lab[c]];
+    for (int c = area.x; c < area.x + area.width; ++c) lab[c] = map[lab[c]];
   }
 }
 
@@ -1490,21 +1493,26 @@ int ObstacleExtractor::dropRemnants(cv::Mat& labels, std::vector<ObstacleCluster
   const int least = std::min(params_.min_cluster_features, params_.weak_cluster_features);
   LabelMap renumbered = unchangedLabels();
   std::size_t kept = 0;
+  // Every obstacle's pixels lie inside its box: only the boxes of the dropped obstacles and of
+  // those renumbered after them hold labels that change.
+  cv::Rect changed;
   for (std::size_t i = 0; i < obstacles.size(); ++i) {
     ObstacleCluster& o = obstacles[i];
     const auto old_label = static_cast<std::size_t>(o.label);
     if (o.feature_count < least) {
       renumbered[old_label] = kLabelUnassigned;
+      changed |= o.box;
       continue;
     }
     o.label = kLabelFirstObstacle + static_cast<int>(kept);
     renumbered[old_label] = static_cast<std::uint8_t>(o.label);
+    if (o.label != static_cast<int>(old_label)) changed |= o.box;
     obstacles[kept++] = o;
   }
   const int dropped = static_cast<int>(obstacles.size() - kept);
   if (dropped == 0) return 0;
   obstacles.resize(kept);
-  relabel(labels, renumbered);
+  relabel(labels, renumbered, changed);
   return dropped;
 }
 
@@ -1788,7 +1796,7 @@ int ObstacleExtractor::splitGroundLinks(const cv::Mat& left, const cv::Mat& righ
 
 int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
                                       std::vector<ObstacleCluster>& obstacles, const GroundProfile* ground) const {
-  if (!params_.trim_plain_sides && !params_.trim_foot_skirt) return 0;
+  if (!params_.trim_plain_sides && !params_.trim_foot_skirt && !params_.drop_unpinned) return 0;
   if (left.type() != CV_8UC1 || labels.size() != left.size() || labels.type() != CV_8UC1)
     throw InputError("obstacles: feature and label images must be mono8 of the same size");
   const int cols = left.cols;
@@ -1851,6 +1859,17 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
       if (a != o.box.x || b != o.box.x + o.box.width - 1) {
         trimmed += o.box.width - (b - a + 1);
         narrowTo(o, a, b, labels);
+      }
+    }
+    if (params_.drop_unpinned && atOneOffset(o)) {
+      // No column pins the offset: every match is a plain surround's or a level edge's, which
+      // match at any offset alike; the obstacle is emptied (dropRemnants removes it).
+      bool pinned = false;
+      for (int x = o.box.x; x < o.box.x + o.box.width && !pinned; ++x) pinned = pins(o, x);
+      if (!pinned) {
+        trimmed += o.box.width;
+        narrowTo(o, o.box.x, o.box.x - 1, labels);
+        continue;
       }
     }
     if (!params_.trim_plain_sides) continue;
@@ -1916,7 +1935,6 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
   const int cols = left.cols;
   const int tol = params_.offset_tolerance_px;
   hidden_columns_.reserve(static_cast<std::size_t>(cols));  // any gap is narrower than the image
-  outline_hits_.reserve(static_cast<std::size_t>(cols));
   int joins = 0;
   for (std::size_t i = 0; i < obstacles.size(); ++i) {
     for (const int dir : {+1, -1}) {
@@ -2216,6 +2234,12 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         ++joins;
       }
   }
+  return joins;
+}
+
+int ObstacleExtractor::growAlongTopOutline(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
+                                           cv::Mat& labels, std::vector<ObstacleCluster>& obstacles,
+                                           double baseline_m) {
   // Plain faces receding to the image border (a long wall seen at an angle, its near end out of
   // view): only a part near its far end is found, and nothing past it shows texture. A vertical
   // face standing on the ground with a level top has, along the row, an offset that changes
@@ -2225,242 +2249,250 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
   // matching the predicted offset in most columns, the face below it is plain, the outline
   // slants and the offset changes (a level line such as the horizon matches at any offset), and
   // the outline runs out of the image (no far side was found).
-  if (params_.plain_outline_faces && measured_ground && !ground.offset_per_row.empty()) {
-    const int rows = left.rows;
-    const int max_offset = static_cast<int>(row_limit_.size()) - 1;
-    // Contact rows below the image: the ground line continued with its slope over the last rows.
-    constexpr int kSlopeRows = 20;
-    const float g_last = ground.offset_per_row.back();
-    const float g_prev = rows > kSlopeRows ? ground.offset_per_row[static_cast<std::size_t>(rows - 1 - kSlopeRows)] : g_last;
-    const double slope_last =
-        std::isfinite(g_last) && std::isfinite(g_prev) ? static_cast<double>(g_last - g_prev) / kSlopeRows : 0.0;
-    auto contactOf = [&](double d, int x) {
-      const int di = static_cast<int>(std::lround(d));
-      const int c = contactRowAt(di, x);
-      if (c < rows || slope_last <= 1e-3) return static_cast<double>(c);
-      return rows - 1 + static_cast<double>(groundRelative(di, x) - g_last) / slope_last;
-    };
-    // Pixel (y, x) matches the face's offset d there (+- the tolerance and one more).
-    auto onFaceAt = [&](int y, int x, double d) {
-      return matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, static_cast<int>(std::floor(d)) - tol - 1,
-                     static_cast<int>(std::ceil(d)) + tol + 1, params_.grey_tolerance, params_.match_half_window_px, cols);
-    };
-    auto outlineHit = [&](int x, double yt, double d) {
-      const int yc = static_cast<int>(std::lround(yt));
-      for (int y = std::max(0, yc - 2); y <= std::min(rows - 1, yc + 2); ++y)
-        if (onFaceAt(y, x, d)) return true;
-      return false;
-    };
-    struct Outline {
-      double k = 0.0, h = 0.0, frac = 0.0;
-      int end = -1, tested = 0;
-    };
-    for (std::size_t i = 0; i < obstacles.size(); ++i) {
-      for (const int dir : {+1, -1}) {
-        const ObstacleCluster& a = obstacles[i];
-        const int da = a.offset_px;
-        if (da < 2) continue;
-        // A part of a person's size is taken for a person, not for the end of a face.
-        if (a.box.height * baseline_m / da <= params_.weak_max_height_m &&
-            a.box.width * baseline_m / da <= params_.weak_max_width_m)
-          continue;
-        const int xs = dir > 0 ? a.box.x + a.box.width - 1 : a.box.x;
-        const int n_cols = dir > 0 ? cols - 1 - xs : xs;
-        // A wide part (much of the face's far half textured) may leave fewer columns to the border
-        // than its own width; the outline's hypotheses are tested over those columns all the same.
-        const double walk_widths = params_.plain_outline_min_walk_widths * a.box.width;
-        if (n_cols < std::max(16.0, walk_widths)) continue;
-        // Plain beside the part over its rows (plain_outline_min_plain_columns of the next 8): the
-        // face shows little texture there. (The part's own side may reach a few columns past its
-        // box: the plain area below the outline, tested with each hypothesis, is what tells.)
-        int plain_columns = 0;
-        for (int j = 1; j <= 8; ++j)
-          plain_columns += plainColumn(labels, xs + dir * j, a.box.y, a.box.y + a.box.height - 1);
-        if (plain_columns < params_.plain_outline_min_plain_columns) continue;
-        // The face's offset at the part's side: the part's own (its dominant offset) for a face out
-        // of view; for one ending in view the part's nearest offset (a receding part is nearest
-        // at the side the walk leaves from, and its dominant offset may lie several pixels below).
-        int d_side = da;
-        double ca = contactOf(d_side, xs);
-        Outline best;
-        // One hypothesis: the face's top at the part in row ys, its offset slope k.
-        int best_ys = -1;
-        // Below the outline at column x (offset d there): the face's rows without a margin at its
-        // top and foot, and how many of their features do not match d.
-        auto belowOutline = [&](int x, double d, double h, long& area, long& other) {
-          const double c = contactOf(d, x);
-          const double yt = c - h * d / baseline_m;
-          const int m = std::max(2, static_cast<int>((c - yt) / 8));
-          const int y_last = std::min(rows - 1, static_cast<int>(std::lround(c)) - m);
-          for (int y = std::max(0, static_cast<int>(std::lround(yt)) + m); y <= y_last; ++y) {
-            ++area;
-            if (labels.ptr<std::uint8_t>(y)[x] == kLabelNone) continue;
-            other += !onFaceAt(y, x, d);
+  if (!params_.join_plain_faces || !params_.plain_outline_faces || baseline_m <= 0.0 ||
+      ground.source != GroundSource::kHough || ground.offset_per_row.empty())
+    return 0;
+  if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() || labels.size() != left.size() ||
+      labels.type() != CV_8UC1)
+    throw InputError("obstacles: feature and label images must be mono8 of the same size");
+  const int cols = left.cols;
+  const int tol = params_.offset_tolerance_px;
+  outline_hits_.reserve(static_cast<std::size_t>(cols));  // one entry per tested column
+  int joins = 0;
+  const int rows = left.rows;
+  const int max_offset = static_cast<int>(row_limit_.size()) - 1;
+  // Contact rows below the image: the ground line continued with its slope over the last rows.
+  constexpr int kSlopeRows = 20;
+  const float g_last = ground.offset_per_row.back();
+  const float g_prev = rows > kSlopeRows ? ground.offset_per_row[static_cast<std::size_t>(rows - 1 - kSlopeRows)] : g_last;
+  const double slope_last =
+      std::isfinite(g_last) && std::isfinite(g_prev) ? static_cast<double>(g_last - g_prev) / kSlopeRows : 0.0;
+  auto contactOf = [&](double d, int x) {
+    const int di = static_cast<int>(std::lround(d));
+    const int c = contactRowAt(di, x);
+    if (c < rows || slope_last <= 1e-3) return static_cast<double>(c);
+    return rows - 1 + static_cast<double>(groundRelative(di, x) - g_last) / slope_last;
+  };
+  // Pixel (y, x) matches the face's offset d there (+- the tolerance and one more).
+  auto onFaceAt = [&](int y, int x, double d) {
+    return matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, static_cast<int>(std::floor(d)) - tol - 1,
+                   static_cast<int>(std::ceil(d)) + tol + 1, params_.grey_tolerance, params_.match_half_window_px, cols);
+  };
+  auto outlineHit = [&](int x, double yt, double d) {
+    const int yc = static_cast<int>(std::lround(yt));
+    for (int y = std::max(0, yc - 2); y <= std::min(rows - 1, yc + 2); ++y)
+      if (onFaceAt(y, x, d)) return true;
+    return false;
+  };
+  struct Outline {
+    double k = 0.0, h = 0.0, frac = 0.0;
+    int end = -1, tested = 0;
+  };
+  for (std::size_t i = 0; i < obstacles.size(); ++i) {
+    for (const int dir : {+1, -1}) {
+      const ObstacleCluster& a = obstacles[i];
+      const int da = a.offset_px;
+      if (da < 2) continue;
+      // A part of a person's size is taken for a person, not for the end of a face.
+      if (a.box.height * baseline_m / da <= params_.weak_max_height_m &&
+          a.box.width * baseline_m / da <= params_.weak_max_width_m)
+        continue;
+      const int xs = dir > 0 ? a.box.x + a.box.width - 1 : a.box.x;
+      const int n_cols = dir > 0 ? cols - 1 - xs : xs;
+      // A wide part (much of the face's far half textured) may leave fewer columns to the border
+      // than its own width; the outline's hypotheses are tested over those columns all the same.
+      const double walk_widths = params_.plain_outline_min_walk_widths * a.box.width;
+      if (n_cols < std::max(16.0, walk_widths)) continue;
+      // Plain beside the part over its rows (plain_outline_min_plain_columns of the next 8): the
+      // face shows little texture there. (The part's own side may reach a few columns past its
+      // box: the plain area below the outline, tested with each hypothesis, is what tells.)
+      int plain_columns = 0;
+      for (int j = 1; j <= 8; ++j)
+        plain_columns += plainColumn(labels, xs + dir * j, a.box.y, a.box.y + a.box.height - 1);
+      if (plain_columns < params_.plain_outline_min_plain_columns) continue;
+      // The face's offset at the part's side: the part's own (its dominant offset) for a face out
+      // of view; for one ending in view the part's nearest offset (a receding part is nearest
+      // at the side the walk leaves from, and its dominant offset may lie several pixels below).
+      int d_side = da;
+      double ca = contactOf(d_side, xs);
+      Outline best;
+      // One hypothesis: the face's top at the part in row ys, its offset slope k.
+      int best_ys = -1;
+      // Below the outline at column x (offset d there): the face's rows without a margin at its
+      // top and foot, and how many of their features do not match d.
+      auto belowOutline = [&](int x, double d, double h, long& area, long& other) {
+        const double c = contactOf(d, x);
+        const double yt = c - h * d / baseline_m;
+        const int m = std::max(2, static_cast<int>((c - yt) / 8));
+        const int y_last = std::min(rows - 1, static_cast<int>(std::lround(c)) - m);
+        for (int y = std::max(0, static_cast<int>(std::lround(yt)) + m); y <= y_last; ++y) {
+          ++area;
+          if (labels.ptr<std::uint8_t>(y)[x] == kLabelNone) continue;
+          other += !onFaceAt(y, x, d);
+        }
+      };
+      // With `in_view`, a face that ends inside the image (its near end in view): the walk's
+      // outline goes on past the end over the ground and the hills, where features match the
+      // predicted offset by chance in about half the columns, so the end is where the face
+      // below the outline gives way to texture (two sampled columns in a row where more than
+      // half of the rows are features not matching the face's offset), at the
+      // last outline hit before it, and a vertical outline there (the face's near end) must
+      // match the end's offset over at least plain_near_end_edge_share of the face's rows.
+      auto evaluate = [&](int ys, double k, bool in_view) {
+        if (ys < 0 || ys > a.box.y + 2) return;
+        const double h = (ca - ys) * baseline_m / d_side;
+        if (h < 0.5) return;
+        Outline o{k, h, 0.0, -1, 0};
+        int hits = 0;
+        bool out_of_view = false;  // the outline reached the image's side or top
+        outline_hits_.clear();
+        for (int j = 2; j <= n_cols; j += 2) {  // every second column
+          const double d = d_side + k * j;
+          if (d > max_offset) break;
+          const int x = xs + dir * j;
+          const double yt = contactOf(d, x) - h * d / baseline_m;
+          if (yt < 2.0) {
+            out_of_view = true;
+            break;
           }
-        };
-        // With `in_view`, a face that ends inside the image (its near end in view): the walk's
-        // outline goes on past the end over the ground and the hills, where features match the
-        // predicted offset by chance in about half the columns, so the end is where the face
-        // below the outline gives way to texture (two sampled columns in a row where more than
-        // half of the rows are features not matching the face's offset), at the
-        // last outline hit before it, and a vertical outline there (the face's near end) must
-        // match the end's offset over at least plain_near_end_edge_share of the face's rows.
-        auto evaluate = [&](int ys, double k, bool in_view) {
-          if (ys < 0 || ys > a.box.y + 2) return;
-          const double h = (ca - ys) * baseline_m / d_side;
-          if (h < 0.5) return;
-          Outline o{k, h, 0.0, -1, 0};
-          int hits = 0;
-          bool out_of_view = false;  // the outline reached the image's side or top
-          outline_hits_.clear();
-          for (int j = 2; j <= n_cols; j += 2) {  // every second column
-            const double d = d_side + k * j;
-            if (d > max_offset) break;
-            const int x = xs + dir * j;
-            const double yt = contactOf(d, x) - h * d / baseline_m;
-            if (yt < 2.0) {
-              out_of_view = true;
+          out_of_view = j + 2 > n_cols;
+          ++o.tested;
+          const bool hit = outlineHit(x, yt, d);
+          outline_hits_.push_back(hit ? 1 : 0);
+          if (hit) {
+            ++hits;
+            o.end = x;
+          }
+          if (o.tested % 20 == 0 && 5 * hits < 2 * o.tested) break;  // below 40 %: hopeless
+        }
+        if (o.end < 0) return;
+        if (!in_view) {
+          if (!out_of_view || o.tested < std::max(8.0, walk_widths / 2)) return;
+        } else {
+          // The last tested column before `limit` that is a hit with enough of the outline
+          // matched up to it (-1 when none), and the hits up to it.
+          const int n_tested = static_cast<int>(outline_hits_.size());
+          auto lastQualifying = [&](int limit, int& hits_up_to) {
+            int last = -1;
+            for (int t = 0, run = 0; t < limit; ++t) {
+              run += outline_hits_[static_cast<std::size_t>(t)];
+              if (outline_hits_[static_cast<std::size_t>(t)] && run >= params_.plain_min_outline_fraction * (t + 1)) {
+                last = t;
+                hits_up_to = run;
+              }
+            }
+            return last;
+          };
+          // The farthest such hit: no end lies beyond, and the face below the outline is
+          // sampled only that far (and 8 columns more).
+          int hits_at_last = 0;
+          const int reach = lastQualifying(n_tested, hits_at_last);
+          if (reach + 1 < std::max(8.0, walk_widths / 2)) return;
+          const int scan_end = std::min(n_tested, reach + 5);
+          int stop = scan_end, first_bad = -1;
+          for (int t = 1; t < scan_end; t += 2) {  // every fourth column
+            const int j = 2 * (t + 1);
+            long area = 0, other = 0;
+            belowOutline(xs + dir * j, d_side + k * j, h, area, other);
+            if (area > 0 && 2 * other <= area) {
+              first_bad = -1;
+            } else if (first_bad < 0) {
+              first_bad = t;
+            } else {
+              stop = first_bad;
               break;
             }
-            out_of_view = j + 2 > n_cols;
-            ++o.tested;
-            const bool hit = outlineHit(x, yt, d);
-            outline_hits_.push_back(hit ? 1 : 0);
-            if (hit) {
-              ++hits;
-              o.end = x;
-            }
-            if (o.tested % 20 == 0 && 5 * hits < 2 * o.tested) break;  // below 40 %: hopeless
           }
-          if (o.end < 0) return;
-          if (!in_view) {
-            if (!out_of_view || o.tested < std::max(8.0, walk_widths / 2)) return;
-          } else {
-            // The last tested column before `limit` that is a hit with enough of the outline
-            // matched up to it (-1 when none), and the hits up to it.
-            const int n_tested = static_cast<int>(outline_hits_.size());
-            auto lastQualifying = [&](int limit, int& hits_up_to) {
-              int last = -1;
-              for (int t = 0, run = 0; t < limit; ++t) {
-                run += outline_hits_[static_cast<std::size_t>(t)];
-                if (outline_hits_[static_cast<std::size_t>(t)] && run >= params_.plain_min_outline_fraction * (t + 1)) {
-                  last = t;
-                  hits_up_to = run;
-                }
-              }
-              return last;
-            };
-            // The farthest such hit: no end lies beyond, and the face below the outline is
-            // sampled only that far (and 8 columns more).
-            int hits_at_last = 0;
-            const int reach = lastQualifying(n_tested, hits_at_last);
-            if (reach + 1 < std::max(8.0, walk_widths / 2)) return;
-            const int scan_end = std::min(n_tested, reach + 5);
-            int stop = scan_end, first_bad = -1;
-            for (int t = 1; t < scan_end; t += 2) {  // every fourth column
-              const int j = 2 * (t + 1);
-              long area = 0, other = 0;
-              belowOutline(xs + dir * j, d_side + k * j, h, area, other);
-              if (area > 0 && 2 * other <= area) {
-                first_bad = -1;
-              } else if (first_bad < 0) {
-                first_bad = t;
-              } else {
-                stop = first_bad;
-                break;
-              }
-            }
-            if (stop == n_tested && out_of_view) return;  // plain to the border: the case above
-            const int last = stop > reach ? reach : lastQualifying(stop, hits_at_last);
-            if (last + 1 < std::max(8.0, walk_widths / 2)) return;
-            const int j_end = 2 * (last + 1);
-            const double d_end = d_side + k * j_end;
-            const int x_end = xs + dir * j_end;
-            const double c_end = contactOf(d_end, x_end);
-            const int y_top = std::max(0, static_cast<int>(std::lround(c_end - h * d_end / baseline_m)));
-            const int y_bottom = std::min(rows - 1, static_cast<int>(std::lround(c_end)));
-            if (y_bottom < y_top) return;
-            // The vertical outline lies between the last hit and the first textured column (+2).
-            const int x_stop = xs + dir * 2 * (std::min(stop, n_tested - 1) + 1);
-            const int xa = std::max(0, std::min(x_end, x_stop) - 2), xb = std::min(cols - 1, std::max(x_end, x_stop) + 2);
-            int edge_rows = 0;
-            for (int y = y_top; y <= y_bottom; ++y) {
-              bool on = false;
-              for (int x = xa; x <= xb && !on; ++x) on = onFaceAt(y, x, d_end);
-              edge_rows += on ? 1 : 0;
-            }
-            if (edge_rows < params_.plain_near_end_edge_share * (y_bottom - y_top + 1)) return;
-            o.tested = last + 1;
-            o.end = x_end;
-            hits = hits_at_last;
-          }
-          o.frac = static_cast<double>(hits) / o.tested;
-          if (o.frac < params_.plain_min_outline_fraction || o.frac < best.frac ||
-              (o.frac == best.frac && o.tested <= best.tested))
-            return;
-          const int j_end = std::abs(o.end - xs);
+          if (stop == n_tested && out_of_view) return;  // plain to the border: the case above
+          const int last = stop > reach ? reach : lastQualifying(stop, hits_at_last);
+          if (last + 1 < std::max(8.0, walk_widths / 2)) return;
+          const int j_end = 2 * (last + 1);
           const double d_end = d_side + k * j_end;
-          const double top_s = ca - h * d_side / baseline_m;
-          const double top_e = contactOf(d_end, o.end) - h * d_end / baseline_m;
-          if (d_end - d_side < 3.0 || std::abs(top_e - top_s) < std::max(6.0, 0.05 * j_end)) return;
-          // Plain below the outline: few features there that do not match the face's offset.
-          long area = 0, other = 0;
-          for (int j = 2; j <= j_end; j += 4) belowOutline(xs + dir * j, d_side + k * j, h, area, other);
-          if (area == 0 || other > params_.plain_max_feature_fraction * area) return;
-          best = o;
-          best_ys = ys;
-        };
-        // Coarse to fine. The face's top at the part: from half the part's height above its top
-        // (the part may be a piece of the face's end) down to its top; offset slopes from 0.01 to
-        // 0.5 px per column (a wall along the line of sight 1.1 m to the side of the camera
-        // changes by B / 1.1 m per column).
-        // Faces out of view first; a face ending in view only when none is found.
-        for (const bool in_view : {false, true}) {
-          if (best.end >= 0 || (in_view && !params_.plain_outline_near_end)) break;
-          if (in_view) {
-            d_side = std::max(d_side, a.max_offset_px);
-            ca = contactOf(d_side, xs);
+          const int x_end = xs + dir * j_end;
+          const double c_end = contactOf(d_end, x_end);
+          const int y_top = std::max(0, static_cast<int>(std::lround(c_end - h * d_end / baseline_m)));
+          const int y_bottom = std::min(rows - 1, static_cast<int>(std::lround(c_end)));
+          if (y_bottom < y_top) return;
+          // The vertical outline lies between the last hit and the first textured column (+2).
+          const int x_stop = xs + dir * 2 * (std::min(stop, n_tested - 1) + 1);
+          const int xa = std::max(0, std::min(x_end, x_stop) - 2), xb = std::min(cols - 1, std::max(x_end, x_stop) + 2);
+          int edge_rows = 0;
+          for (int y = y_top; y <= y_bottom; ++y) {
+            bool on = false;
+            for (int x = xa; x <= xb && !on; ++x) on = onFaceAt(y, x, d_end);
+            edge_rows += on ? 1 : 0;
           }
-          for (int ys = a.box.y + 2; ys >= std::max(0, a.box.y - a.box.height / 2); ys -= 3)
-            for (double k = 0.01; k <= 0.5; k *= 1.2) evaluate(ys, k, in_view);
-          if (best.end >= 0) {
-            const int ys_c = best_ys;
-            const double k_c = best.k;
-            for (int ys = ys_c - 2; ys <= ys_c + 2; ++ys)
-              for (double k = k_c / 1.2; k <= std::min(0.5, k_c * 1.2); k *= 1.05) evaluate(ys, k, in_view);
-          }
+          if (edge_rows < params_.plain_near_end_edge_share * (y_bottom - y_top + 1)) return;
+          o.tested = last + 1;
+          o.end = x_end;
+          hits = hits_at_last;
         }
-        if (best.end < 0) continue;
-        // The part grows over the face; other obstacles on the face (at its offset where they
-        // stand) fold into it, those in front of it stay apart.
-        const int j_end = std::abs(best.end - xs);
-        const double d_end = d_side + best.k * j_end;
-        const double c_end = contactOf(d_end, best.end);
-        const int top = static_cast<int>(std::lround(c_end - best.h * d_end / baseline_m));
-        const int x0 = std::min(a.box.x, best.end), x1 = std::max(a.box.x + a.box.width - 1, best.end);
-        const int y0 = std::max(0, std::min(a.box.y, top));
-        const int y1 = std::max(a.box.y + a.box.height - 1, std::min(rows - 1, static_cast<int>(std::lround(c_end))));
-        obstacles[i].box = cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
-        obstacles[i].max_offset_px =
-            std::max(obstacles[i].max_offset_px, std::min(max_offset, static_cast<int>(std::ceil(d_end))));
-        // (Each fold renumbers the obstacles: the grown one is obstacles[i] again after it.)
-        auto onFace = [&](const ObstacleCluster& o) {
-          const double xc = o.box.x + 0.5 * (o.box.width - 1);
-          const double d = d_side + best.k * dir * (xc - xs);
-          return overlapOfSmaller(obstacles[i].box, o.box) >= params_.merge_overlap && std::abs(o.offset_px - d) <= tol + 1;
-        };
-        for (bool folded = true; folded;) {
-          folded = false;
-          for (std::size_t j = 0; j < obstacles.size() && !folded; ++j) {
-            if (j == i || !onFace(obstacles[j])) continue;
-            const ObstacleCluster& o = obstacles[j];
-            foldInto(i, o.box, o.min_offset_px, o.max_offset_px, labels, obstacles);
-            folded = true;
-          }
+        o.frac = static_cast<double>(hits) / o.tested;
+        if (o.frac < params_.plain_min_outline_fraction || o.frac < best.frac ||
+            (o.frac == best.frac && o.tested <= best.tested))
+          return;
+        const int j_end = std::abs(o.end - xs);
+        const double d_end = d_side + k * j_end;
+        const double top_s = ca - h * d_side / baseline_m;
+        const double top_e = contactOf(d_end, o.end) - h * d_end / baseline_m;
+        if (d_end - d_side < 3.0 || std::abs(top_e - top_s) < std::max(6.0, 0.05 * j_end)) return;
+        // Plain below the outline: few features there that do not match the face's offset.
+        long area = 0, other = 0;
+        for (int j = 2; j <= j_end; j += 4) belowOutline(xs + dir * j, d_side + k * j, h, area, other);
+        if (area == 0 || other > params_.plain_max_feature_fraction * area) return;
+        best = o;
+        best_ys = ys;
+      };
+      // Coarse to fine. The face's top at the part: from half the part's height above its top
+      // (the part may be a piece of the face's end) down to its top; offset slopes from 0.01 to
+      // 0.5 px per column (a wall along the line of sight 1.1 m to the side of the camera
+      // changes by B / 1.1 m per column).
+      // Faces out of view first; a face ending in view only when none is found.
+      for (const bool in_view : {false, true}) {
+        if (best.end >= 0 || (in_view && !params_.plain_outline_near_end)) break;
+        if (in_view) {
+          d_side = std::max(d_side, a.max_offset_px);
+          ca = contactOf(d_side, xs);
         }
-        ++joins;
-        break;
+        for (int ys = a.box.y + 2; ys >= std::max(0, a.box.y - a.box.height / 2); ys -= 3)
+          for (double k = 0.01; k <= 0.5; k *= 1.2) evaluate(ys, k, in_view);
+        if (best.end >= 0) {
+          const int ys_c = best_ys;
+          const double k_c = best.k;
+          for (int ys = ys_c - 2; ys <= ys_c + 2; ++ys)
+            for (double k = k_c / 1.2; k <= std::min(0.5, k_c * 1.2); k *= 1.05) evaluate(ys, k, in_view);
+        }
       }
+      if (best.end < 0) continue;
+      // The part grows over the face; other obstacles on the face (at its offset where they
+      // stand) fold into it, those in front of it stay apart.
+      const int j_end = std::abs(best.end - xs);
+      const double d_end = d_side + best.k * j_end;
+      const double c_end = contactOf(d_end, best.end);
+      const int top = static_cast<int>(std::lround(c_end - best.h * d_end / baseline_m));
+      const int x0 = std::min(a.box.x, best.end), x1 = std::max(a.box.x + a.box.width - 1, best.end);
+      const int y0 = std::max(0, std::min(a.box.y, top));
+      const int y1 = std::max(a.box.y + a.box.height - 1, std::min(rows - 1, static_cast<int>(std::lround(c_end))));
+      obstacles[i].box = cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
+      obstacles[i].max_offset_px =
+          std::max(obstacles[i].max_offset_px, std::min(max_offset, static_cast<int>(std::ceil(d_end))));
+      // (Each fold renumbers the obstacles: the grown one is obstacles[i] again after it.)
+      auto onFace = [&](const ObstacleCluster& o) {
+        const double xc = o.box.x + 0.5 * (o.box.width - 1);
+        const double d = d_side + best.k * dir * (xc - xs);
+        return overlapOfSmaller(obstacles[i].box, o.box) >= params_.merge_overlap && std::abs(o.offset_px - d) <= tol + 1;
+      };
+      for (bool folded = true; folded;) {
+        folded = false;
+        for (std::size_t j = 0; j < obstacles.size() && !folded; ++j) {
+          if (j == i || !onFace(obstacles[j])) continue;
+          const ObstacleCluster& o = obstacles[j];
+          foldInto(i, o.box, o.min_offset_px, o.max_offset_px, labels, obstacles);
+          folded = true;
+        }
+      }
+      ++joins;
+      break;
     }
   }
   return joins;

@@ -27,7 +27,8 @@
 //  - after the loop, a left-right test trims the band left of each obstacle that only the
 //    left camera sees (trimOccludedLeft), and the sides of plain faces, at one offset or
 //    receding in depth, are joined into one obstacle (joinPlainFaces), and so are parts of one
-//    face receding in depth whose top outline runs between them (joinRecedingParts); last, side columns
+//    face receding in depth whose top outline runs between them (joinRecedingParts); a part of a
+//    plain face receding in depth grows along its predicted top outline (growAlongTopOutline); last, side columns
 //    whose pixels do not pin the offset (the feature mask's reach into a plain surround) are
 //    trimmed (trimPlainSides).
 #include <array>
@@ -105,6 +106,7 @@ struct ObstacleParams {
   double thin_min_aspect = 5.0;     // obstacles this many times taller than wide are thin (0: none) ...
   double thin_side_share = 0.1;    // ... and lose side columns holding less than this share of the fullest's pixels
   bool trim_foot_skirt = true;     // side columns holding the obstacle's pixels at its foot only are trimmed
+  bool drop_unpinned = true;       // an obstacle at one offset none of whose pixels pins it (away from its foot) is dropped
   // A person joined to something at the same offset by a link along the ground (the ground's
   // residue at their common foot row, a shadow's edge) is split there; person-sized parts are kept.
   bool split_ground_links = true;
@@ -224,6 +226,9 @@ struct ObstacleParams {
             "a thin obstacle's side column holding less than this share of its fullest column's pixels is trimmed");
     v.field("trim_foot_skirt", trim_foot_skirt, 0, 1, "",
             "trim side columns whose pixels of the obstacle all lie at its foot (ground residue beside it)");
+    v.field("drop_unpinned", drop_unpinned, 0, 1, "",
+            "drop an obstacle at one offset none of whose pixels pins the offset away from its foot "
+            "(matches of a plain surround or of level edges, alike at every offset)");
     v.field("split_ground_links", split_ground_links, 0, 1, "",
             "keep the person-sized part of an obstacle joined to another by pixels at its foot only");
     v.field("link_min_part_width_m", link_min_part_width_m, 0.0, 10.0, "metres",
@@ -336,8 +341,9 @@ class ObstacleExtractor {
   // (within twice offset_tolerance_px) loses the side columns holding its pixels at its foot and
   // none above it that pins the offset (trim_foot_skirt: the ground's residue beside the foot),
   // as far as they reach, and a thin obstacle (thin_min_aspect) loses the side columns holding
-  // less than thin_side_share of its fullest column's pixels. Returns the number of columns
-  // trimmed.
+  // less than thin_side_share of its fullest column's pixels. An obstacle at one offset none of
+  // whose columns pins the offset is emptied (drop_unpinned: feature_count 0, box width 0;
+  // dropRemnants removes it). Returns the number of columns trimmed.
   int trimPlainSides(const cv::Mat& left, cv::Mat& labels, std::vector<ObstacleCluster>& obstacles,
                      const GroundProfile* ground = nullptr) const;
 
@@ -367,13 +373,21 @@ class ObstacleExtractor {
   // row) is a plane passing the camera at least receding_min_lateral_m to the side, and the top
   // outline between them matches those offsets. Only on frames whose ground line was measured.
   // Returns the number of joins.
+  int joinRecedingParts(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
+                        std::vector<ObstacleCluster>& obstacles, double baseline_m);
+
+  // Grows a part of a plain face receding in depth along the face's predicted top outline
+  // (ObstacleParams::plain_outline_faces): to the image border when the face runs out of view,
+  // else (plain_outline_near_end) to a near end in view. Runs after the joins above, so a part
+  // they completed grows from its whole extent; obstacles lying on the grown face at its offset
+  // fold into it. Only on frames whose ground line was measured. Returns the parts grown.
+  int growAlongTopOutline(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
+                          std::vector<ObstacleCluster>& obstacles, double baseline_m);
+
   // A part rejected as floating that rests on a nearer obstacle (a vehicle's cabin, set back
   // above its body) joins it (ObstacleParams::join_stacked_parts). Returns the joins made.
   int joinStackedParts(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels,
                        std::vector<ObstacleCluster>& obstacles, double focal_baseline) const;
-
-  int joinRecedingParts(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
-                        std::vector<ObstacleCluster>& obstacles, double baseline_m);
 
   // Drops the obstacles that the trims above left with fewer matched pixels than the loop
   // accepts for any cluster (the smaller of min_cluster_features and weak_cluster_features):
@@ -523,7 +537,7 @@ class ObstacleExtractor {
   };
   std::vector<FaceColumn> face_columns_;
   std::vector<std::uint8_t> hidden_columns_;  // joinPlainFaces: gap columns behind a nearer obstacle
-  std::vector<std::uint8_t> outline_hits_;    // joinPlainFaces: per tested column, the outline matched
+  std::vector<std::uint8_t> outline_hits_;    // growAlongTopOutline: per tested column, the outline matched
   std::vector<int> pixels_above_foot_;        // splitGroundLinks: an obstacle's pixels above its foot per column
   struct LinkPart {
     int a = 0, b = 0;  // columns relative to the box

@@ -132,6 +132,8 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
   obstacles_.joinPlainFaces(left_features, right_features, out.ground, out.labels, out.obstacles,
                             rig.baseline_m);
   obstacles_.joinRecedingParts(left_features, right_features, out.ground, out.labels, out.obstacles, rig.baseline_m);
+  obstacles_.growAlongTopOutline(left_features, right_features, out.ground, out.labels, out.obstacles,
+                                 rig.baseline_m);
   obstacles_.joinStackedParts(left_features, right_features, out.labels, out.obstacles,
                               rig.focal_px * rig.baseline_m);
   obstacles_.trimForeignSides(left_features, right_features, out.labels, out.obstacles,

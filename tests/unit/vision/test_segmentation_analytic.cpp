@@ -357,6 +357,52 @@ TEST(ObstacleSides, GroundResidueAtTheFootIsTrimmed) {
   EXPECT_EQ(box, cv::Rect(25, 5, 18, 30));
 }
 
+// An obstacle made only of level edges (horizontal streaks of one grey across the image, which
+// match at every offset alike) holds no pixel that pins its offset: it is emptied, and
+// dropRemnants removes it. One textured row inside it pins the offset and keeps it whole; with
+// the rule switched off it stays, losing only the plain-side trim's reach on each side.
+TEST(ObstacleSides, ObstacleOfLevelEdgesOnlyIsDropped) {
+  cv::Mat features = cv::Mat::zeros(40, 70, CV_8UC1);
+  cv::Mat labels = cv::Mat::zeros(40, 70, CV_8UC1);
+  const cv::Rect box(20, 8, 20, 24);
+  for (const int y : {8, 9, 18, 19, 30, 31}) {
+    features.row(y).setTo(90);
+    labels(cv::Rect(box.x, y, box.width, 1)).setTo(kLabelFirstObstacle);
+  }
+  ObstacleCluster streaks;
+  streaks.offset_px = streaks.min_offset_px = streaks.max_offset_px = 20;
+  streaks.box = box;
+  streaks.feature_count = 6 * box.width;
+
+  auto run = [&](const ObstacleParams& params, const cv::Mat& f, std::vector<ObstacleCluster>& obstacles) {
+    cv::Mat lab = labels.clone();
+    obstacles = {streaks};
+    ObstacleExtractor extractor(params);
+    const int trimmed = extractor.trimPlainSides(f, lab, obstacles);
+    extractor.dropRemnants(lab, obstacles);
+    return std::make_pair(trimmed, cv::countNonZero(lab == kLabelFirstObstacle));
+  };
+  std::vector<ObstacleCluster> obstacles;
+  const auto [trimmed, left_over] = run(ObstacleParams{}, features, obstacles);
+  EXPECT_EQ(trimmed, box.width);
+  EXPECT_TRUE(obstacles.empty());
+  EXPECT_EQ(left_over, 0);
+
+  cv::Mat textured = features.clone();
+  constexpr std::uint8_t kTexture[3] = {40, 120, 200};
+  for (int x = 0; x < textured.cols; ++x) textured.at<std::uint8_t>(18, x) = kTexture[x % 3];
+  EXPECT_EQ(run(ObstacleParams{}, textured, obstacles).first, 0);
+  ASSERT_EQ(obstacles.size(), 1u);
+  EXPECT_EQ(obstacles[0].box, box);
+
+  ObstacleParams off;
+  off.drop_unpinned = false;
+  const int reach = off.plain_side_reach_px;
+  EXPECT_EQ(run(off, features, obstacles).first, 2 * reach);
+  ASSERT_EQ(obstacles.size(), 1u);
+  EXPECT_EQ(obstacles[0].box, cv::Rect(box.x + reach, box.y, box.width - 2 * reach, box.height));
+}
+
 // Two textured objects side by side: A in columns [50, 60) at offset 20 and B in [60, 75) at 17,
 // one cluster at 20 over both (B's outline matched within the offset tolerance). On a rig with
 // f * B = 389 (KITTI's), 3 px at offset 20 is 2.4 m in depth: B's columns, whose pixels match best
