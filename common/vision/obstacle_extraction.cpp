@@ -20,8 +20,9 @@ namespace {
 
 // Left pixel x matches the right row at some offset in [d0, d1]: every feature pixel of the
 // window [x - half, x + half] (inside the row, at least the centre) has a right feature within tol.
-inline bool matchAt(const std::uint8_t* l, const std::uint8_t* r, int x, int d0, int d1, int tol, int half,
-                    int width) {
+// (Always inlined: a call per pixel costs more than the test in the face-growing loops.)
+[[gnu::always_inline]] inline bool matchAt(const std::uint8_t* l, const std::uint8_t* r, int x, int d0, int d1,
+                                           int tol, int half, int width) {
   const int a0 = l[x];
   if (a0 == 0) return false;
   const int k0 = std::max(-half, -x);
@@ -1828,6 +1829,8 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
     }
     return foot > 0;
   };
+  // The fewest pixels any cluster of the loop has (dropRemnants removes obstacles below it).
+  const int least_cluster = std::min(params_.min_cluster_features, params_.weak_cluster_features);
   int trimmed = 0;
   for (ObstacleCluster& o : obstacles) {
     // Only obstacles at one offset: a face receding in depth has another foot in every column.
@@ -1873,11 +1876,34 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
       }
     }
     if (!params_.trim_plain_sides) continue;
-    int x0 = o.box.x, x1 = o.box.x + o.box.width - 1;
-    const int reach = params_.plain_side_reach_px;
-    while (x0 < std::min(x1, o.box.x + reach) && !pins(o, x0)) ++x0;
-    const int right_stop = std::max(x0, o.box.x + o.box.width - 1 - reach);
-    while (x1 > right_stop && !pins(o, x1)) --x1;
+    // The columns [x0, x1] left when at most `reach` columns go from each side.
+    auto trimmedTo = [&](int reach, int& x0, int& x1) {
+      x0 = o.box.x;
+      x1 = o.box.x + o.box.width - 1;
+      while (x0 < std::min(x1, o.box.x + reach) && !pins(o, x0)) ++x0;
+      const int right_stop = std::max(x0, o.box.x + o.box.width - 1 - reach);
+      while (x1 > right_stop && !pins(o, x1)) --x1;
+    };
+    int x0 = 0, x1 = 0;
+    trimmedTo(params_.plain_side_reach_px, x0, x1);
+    // A tall obstacle at one offset (a person, a post) is no plain face whose level outlines the
+    // reach protects: beside it, a horizontal streak of the ground or a plain surround pins
+    // nothing however far it reaches. Its sides go as far as no column pins, while most of its
+    // pixels stay (a far person's cluster is small, and its pins may be few).
+    if (params_.tall_side_min_aspect > 0.0 && atOneOffset(o) &&
+        o.box.height >= params_.tall_side_min_aspect * o.box.width) {
+      int a = 0, b = 0;
+      trimmedTo(o.box.width, a, b);
+      int kept = 0;
+      for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
+        const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+        for (int x = a; x <= b; ++x) kept += lab[x] == o.label ? 1 : 0;
+      }
+      if (kept >= params_.tall_side_keep_share * o.feature_count && kept >= least_cluster) {
+        x0 = a;
+        x1 = b;
+      }
+    }
     if (x0 == o.box.x && x1 == o.box.x + o.box.width - 1) continue;
     trimmed += o.box.width - (x1 - x0 + 1);
     narrowTo(o, x0, x1, labels);

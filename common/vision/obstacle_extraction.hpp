@@ -106,6 +106,9 @@ struct ObstacleParams {
   double thin_min_aspect = 5.0;     // obstacles this many times taller than wide are thin (0: none) ...
   double thin_side_share = 0.1;    // ... and lose side columns holding less than this share of the fullest's pixels
   bool trim_foot_skirt = true;     // side columns holding the obstacle's pixels at its foot only are trimmed
+  double tall_side_min_aspect = 1.5;  // an obstacle this many times taller than wide (0: none) loses every side
+                                      // column pinning nothing, not only plain_side_reach_px of them ...
+  double tall_side_keep_share = 0.5;  // ... when at least this share of its pixels stays
   bool drop_unpinned = true;       // an obstacle at one offset none of whose pixels pins it (away from its foot) is dropped
   // A person joined to something at the same offset by a link along the ground (the ground's
   // residue at their common foot row, a shadow's edge) is split there; person-sized parts are kept.
@@ -226,6 +229,11 @@ struct ObstacleParams {
             "a thin obstacle's side column holding less than this share of its fullest column's pixels is trimmed");
     v.field("trim_foot_skirt", trim_foot_skirt, 0, 1, "",
             "trim side columns whose pixels of the obstacle all lie at its foot (ground residue beside it)");
+    v.field("tall_side_min_aspect", tall_side_min_aspect, 0.0, 100.0, "",
+            "an obstacle at one offset this many times taller than wide loses every side column that pins no "
+            "offset, not only plain_side_reach_px of them; 0: never");
+    v.field("tall_side_keep_share", tall_side_keep_share, 0.0, 1.0, "",
+            "... when at least this share of its pixels (and a remnant's least) stays");
     v.field("drop_unpinned", drop_unpinned, 0, 1, "",
             "drop an obstacle at one offset none of whose pixels pins the offset away from its foot "
             "(matches of a plain surround or of level edges, alike at every offset)");
@@ -341,7 +349,9 @@ class ObstacleExtractor {
   // (within twice offset_tolerance_px) loses the side columns holding its pixels at its foot and
   // none above it that pins the offset (trim_foot_skirt: the ground's residue beside the foot),
   // as far as they reach, and a thin obstacle (thin_min_aspect) loses the side columns holding
-  // less than thin_side_share of its fullest column's pixels. An obstacle at one offset none of
+  // less than thin_side_share of its fullest column's pixels. A tall obstacle at one offset
+  // (tall_side_min_aspect) loses its unpinned side columns however many, when at least
+  // tall_side_keep_share of its pixels stay. An obstacle at one offset none of
   // whose columns pins the offset is emptied (drop_unpinned: feature_count 0, box width 0;
   // dropRemnants removes it). Returns the number of columns trimmed.
   int trimPlainSides(const cv::Mat& left, cv::Mat& labels, std::vector<ObstacleCluster>& obstacles,

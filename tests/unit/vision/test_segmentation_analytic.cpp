@@ -357,6 +357,46 @@ TEST(ObstacleSides, GroundResidueAtTheFootIsTrimmed) {
   EXPECT_EQ(box, cv::Rect(25, 5, 18, 30));
 }
 
+// A tall obstacle (the textured pole of poleFeatures, columns 25-30, rows 5-34) joined by a level
+// streak of the ground (one grey across the image, matching at every offset) over the 10 columns
+// to its right: nothing in the streak pins the offset, and the obstacle, 1.9 times taller than
+// wide, loses it back to the column next to the pole (which pins: its left neighbour is the
+// pole), beyond the plain-side trim's reach. A plain block of 28 rows instead of the streak
+// holds more pixels than the pole: trimming it would leave less than half of the obstacle's
+// pixels, so only the reach goes. With the rule off, only the reach goes either way.
+TEST(ObstacleSides, TallObstaclesLoseTheirUnpinnedSidesBeyondTheReach) {
+  auto scene = [](int rows_from, int rows_to) {
+    PoleFeatures p = poleFeatures(0, 0);  // the pole only: no features beside it
+    for (int y = rows_from; y <= rows_to; ++y) {
+      for (int x = 0; x < p.features.cols; ++x)
+        if (x < 25 || x > 30) p.features.at<std::uint8_t>(y, x) = 90;
+      for (int x = 31; x <= 40; ++x) p.labels.at<std::uint8_t>(y, x) = kLabelFirstObstacle;
+    }
+    p.cluster.box = cv::Rect(25, 5, 16, 30);
+    p.cluster.feature_count = cv::countNonZero(p.labels == kLabelFirstObstacle);
+    return p;
+  };
+  auto trim = [](const ObstacleParams& params, PoleFeatures p) {
+    std::vector<ObstacleCluster> obstacles{p.cluster};
+    ObstacleExtractor(params).trimPlainSides(p.features, p.labels, obstacles);
+    return obstacles.at(0).box;
+  };
+  const ObstacleParams defaults;
+  ASSERT_GE(30.0, defaults.tall_side_min_aspect * 16);
+  const int reach = defaults.plain_side_reach_px;
+  ObstacleParams off;
+  off.tall_side_min_aspect = 0.0;
+
+  const PoleFeatures streak = scene(20, 20);
+  EXPECT_EQ(trim(defaults, streak), cv::Rect(25, 5, 7, 30));
+  EXPECT_EQ(trim(off, streak), cv::Rect(25, 5, 16 - reach, 30));
+
+  const PoleFeatures block = scene(6, 33);
+  ASSERT_GT(block.cluster.feature_count - 30 * 6, 30 * 6);  // the block outweighs the pole
+  EXPECT_EQ(trim(defaults, block), cv::Rect(25, 5, 16 - reach, 30));
+  EXPECT_EQ(trim(off, block), cv::Rect(25, 5, 16 - reach, 30));
+}
+
 // An obstacle made only of level edges (horizontal streaks of one grey across the image, which
 // match at every offset alike) holds no pixel that pins its offset: it is emptied, and
 // dropRemnants removes it. One textured row inside it pins the offset and keeps it whole; with

@@ -801,11 +801,27 @@ TEST(SyntheticObstacles, FloatingCabinJoinsTheBodyBelowIt) {
 // A thin pole fills its own columns top to bottom; beside it, residue near the horizon (seed 8:
 // three columns holding 8-9 pixels each against the pole's 70) pins an offset and outlasts the
 // plain-side trim's 3-column reach. Thin obstacles lose the side columns holding less than a
-// tenth of their fullest column's pixels: seed 8's and seed 141's poles reach IoU 0.5 then.
+// tenth of their fullest column's pixels: seed 8's and seed 141's poles reach IoU 0.5 then. (Seed
+// 8's is also found by the tall obstacles' trim of side columns that pin nothing, below, when
+// the thin trim is off: its residue columns that pin nothing are enough.)
 TEST(SyntheticObstacles, ThinPolesLoseTheirSparseSideColumns) {
   SegmenterParams untrimmed;
   untrimmed.obstacles.thin_min_aspect = 0.0;
-  expectFoundOnlyWithTheStep(untrimmed, "Misc", {{8, 1033}, {141, 138}});
+  expectFoundOnlyWithTheStep(untrimmed, "Misc", {{141, 138}});
+  untrimmed.obstacles.tall_side_min_aspect = 0.0;
+  expectFoundOnlyWithTheStep(untrimmed, "Misc", {{8, 1033}});
+}
+
+// Beside a tall obstacle, a horizontal streak of the ground or a plain surround that joined it pins
+// no offset however far it reaches; the plain-side trim's 3-column reach, which keeps a plain
+// face's level outlines, left it. Tall obstacles lose every such side column while half their
+// pixels stay: seeds 66 and 440 (people 14 and 23 m away whose boxes reached 14 px too far left
+// and 6 px too far right) and seed 578's pole (14 m) reach IoU 0.5 then.
+TEST(SyntheticObstacles, TallObstaclesLoseTheirUnpinnedSides) {
+  SegmenterParams reach_only;
+  reach_only.obstacles.tall_side_min_aspect = 0.0;
+  expectFoundOnlyWithTheStep(reach_only, "Pedestrian", {{66, 273}, {440, 169}});
+  expectFoundOnlyWithTheStep(reach_only, "Misc", {{578, 105}});
 }
 
 // A link's columns count as a plain face's (its upper outline crossing them) only when they are
