@@ -120,6 +120,13 @@ LabelMap unchangedLabels() {
   return map;
 }
 
+// The left and right feature images and the label image: mono8, all of one size.
+void requireMono8Pair(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels) {
+  if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() || labels.size() != left.size() ||
+      labels.type() != CV_8UC1)
+    throw InputError("obstacles: feature and label images must be mono8 of the same size");
+}
+
 // Maps every label inside `area` (the whole image by default).
 void relabel(cv::Mat& labels, const LabelMap& map, cv::Rect area = cv::Rect(0, 0, INT_MAX, INT_MAX)) {
   area &= cv::Rect(0, 0, labels.cols, labels.rows);
@@ -476,9 +483,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
                                 Correlator& correlator, cv::Mat& score, cv::Mat& matches,
                                 std::vector<std::uint8_t>& changed_rows, cv::Mat& labels,
                                 std::vector<ObstacleCluster>& obstacles, double baseline_m, double focal_px) {
-  if (remaining.type() != CV_8UC1 || right.type() != CV_8UC1 || remaining.size() != right.size() ||
-      labels.size() != remaining.size() || labels.type() != CV_8UC1)
-    throw InputError("obstacles: feature and label images must be mono8 of the same size");
+  requireMono8Pair(remaining, right, labels);
   const int rows = remaining.rows;
   const int cols = remaining.cols;
   const int offsets = correlator.params().offsets;
@@ -1286,9 +1291,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
 int ObstacleExtractor::trimOccludedLeft(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
                                         cv::Mat& labels, std::vector<ObstacleCluster>& obstacles) const {
   if (!params_.trim_occluded_left || ground.source == GroundSource::kNone) return 0;
-  if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() || labels.size() != left.size() ||
-      labels.type() != CV_8UC1)
-    throw InputError("obstacles: feature and label images must be mono8 of the same size");
+  requireMono8Pair(left, right, labels);
   const int cols = left.cols;
   const int tol = params_.offset_tolerance_px;
   auto behind = [&](int y, int x) { return offsetBehind(ground, y, x); };
@@ -1397,9 +1400,7 @@ void ObstacleExtractor::replaceFolded(std::size_t& i, const ObstacleCluster& joi
 int ObstacleExtractor::joinRecedingParts(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
                                          cv::Mat& labels, std::vector<ObstacleCluster>& obstacles, double baseline_m) {
   if (!params_.join_receding_parts || baseline_m <= 0.0 || ground.source != GroundSource::kHough) return 0;
-  if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() || labels.size() != left.size() ||
-      labels.type() != CV_8UC1)
-    throw InputError("obstacles: feature and label images must be mono8 of the same size");
+  requireMono8Pair(left, right, labels);
   const int rows = left.rows, cols = left.cols;
   const int tol = params_.offset_tolerance_px;
   // Does the left feature at (y, x) match the right image at offset d (+-tol, the loop's window)?
@@ -1491,7 +1492,7 @@ int ObstacleExtractor::joinRecedingParts(const cv::Mat& left, const cv::Mat& rig
 }
 
 int ObstacleExtractor::dropRemnants(cv::Mat& labels, std::vector<ObstacleCluster>& obstacles) {
-  const int least = std::min(params_.min_cluster_features, params_.weak_cluster_features);
+  const int least = leastClusterFeatures();
   LabelMap renumbered = unchangedLabels();
   std::size_t kept = 0;
   // Every obstacle's pixels lie inside its box: only the boxes of the dropped obstacles and of
@@ -1829,8 +1830,6 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
     }
     return foot > 0;
   };
-  // The fewest pixels any cluster of the loop has (dropRemnants removes obstacles below it).
-  const int least_cluster = std::min(params_.min_cluster_features, params_.weak_cluster_features);
   int trimmed = 0;
   for (ObstacleCluster& o : obstacles) {
     // Only obstacles at one offset: a face receding in depth has another foot in every column.
@@ -1894,12 +1893,12 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
         o.box.height >= params_.tall_side_min_aspect * o.box.width) {
       int a = 0, b = 0;
       trimmedTo(o.box.width, a, b);
-      int kept = 0;
+      int kept = 0;  // counted row by row: the rows are contiguous in memory
       for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
         const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
         for (int x = a; x <= b; ++x) kept += lab[x] == o.label ? 1 : 0;
       }
-      if (kept >= params_.tall_side_keep_share * o.feature_count && kept >= least_cluster) {
+      if (kept >= params_.tall_side_keep_share * o.feature_count && kept >= leastClusterFeatures()) {
         x0 = a;
         x1 = b;
       }
@@ -1955,9 +1954,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
   // obstacle need the measured line.
   const bool measured_ground = ground.source == GroundSource::kHough;
   if (!params_.join_plain_faces || baseline_m <= 0.0) return 0;
-  if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() || labels.size() != left.size() ||
-      labels.type() != CV_8UC1)
-    throw InputError("obstacles: feature and label images must be mono8 of the same size");
+  requireMono8Pair(left, right, labels);
   const int cols = left.cols;
   const int tol = params_.offset_tolerance_px;
   hidden_columns_.reserve(static_cast<std::size_t>(cols));  // any gap is narrower than the image
@@ -2278,9 +2275,7 @@ int ObstacleExtractor::growAlongTopOutline(const cv::Mat& left, const cv::Mat& r
   if (!params_.join_plain_faces || !params_.plain_outline_faces || baseline_m <= 0.0 ||
       ground.source != GroundSource::kHough || ground.offset_per_row.empty())
     return 0;
-  if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() || labels.size() != left.size() ||
-      labels.type() != CV_8UC1)
-    throw InputError("obstacles: feature and label images must be mono8 of the same size");
+  requireMono8Pair(left, right, labels);
   const int cols = left.cols;
   const int tol = params_.offset_tolerance_px;
   outline_hits_.reserve(static_cast<std::size_t>(cols));  // one entry per tested column

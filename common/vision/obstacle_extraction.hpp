@@ -31,6 +31,7 @@
 //    plain face receding in depth grows along its predicted top outline (growAlongTopOutline); last, side columns
 //    whose pixels do not pin the offset (the feature mask's reach into a plain surround) are
 //    trimmed (trimPlainSides).
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -426,6 +427,10 @@ class ObstacleExtractor {
   bool atOneOffset(const ObstacleCluster& o) const {
     return o.max_offset_px - o.min_offset_px <= 2 * params_.offset_tolerance_px;
   }
+
+  // The fewest matched pixels of any cluster the loop accepts (dropRemnants removes obstacles
+  // below it).
+  int leastClusterFeatures() const { return std::min(params_.min_cluster_features, params_.weak_cluster_features); }
 
  private:
   struct Extent {
