@@ -1596,6 +1596,68 @@ int ObstacleExtractor::extendStrides(const cv::Mat& left, const cv::Mat& right, 
   return added;
 }
 
+int ObstacleExtractor::trimStreakSides(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
+                                       cv::Mat& labels, std::vector<ObstacleCluster>& obstacles) const {
+  if (!params_.trim_streak_sides) return 0;
+  requireMono8Pair(left, right, labels);
+  constexpr int kNone = std::numeric_limits<int>::max();
+  const int cols = left.cols;
+  const float clearance = static_cast<float>(params_.plain_side_contact_px);
+  int trimmed = 0;
+  for (ObstacleCluster& o : obstacles) {
+    const int d = o.offset_px;
+    if (d <= 0 || !atOneOffset(o)) continue;
+    const int top_rows = static_cast<int>(params_.streak_top_share * o.box.height);
+    const int y_end = o.box.y + o.box.height;
+    // Does column x stay: a pixel of o in the box's top rows (a head and shoulders, a roof
+    // line), or streak_min_standing of them standing at d rather than at their row's line offset
+    // (a level streak of the ground matches at both alike)? Columns too near the border to test stay.
+    auto stays = [&](int x) {
+      if (x - d - kSadHalfWidth - 1 < 0 || x + kSadHalfWidth >= cols) return true;
+      int standing = 0;
+      for (int y = o.box.y; y < y_end; ++y) {
+        if (labels.ptr<std::uint8_t>(y)[x] != o.label) continue;
+        if (y < o.box.y + top_rows) return true;
+        const float line = ground.lineOffsetAt(y, static_cast<float>(x));
+        if (standingCost(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, d, line, clearance,
+                         params_.stride_max_cost, params_.stride_cost_margin, kNone) != kNone &&
+            ++standing >= params_.streak_min_standing)
+          return true;
+      }
+      return false;
+    };
+    const int x_last = o.box.x + o.box.width - 1;
+    int a = o.box.x, b = x_last;
+    while (a < b && !stays(a)) ++a;
+    while (b > a && !stays(b)) --b;
+    // Up to plain_side_reach_px columns are the outline's own dilation: left to the plain-side trim.
+    if (a - o.box.x <= params_.plain_side_reach_px) a = o.box.x;
+    if (x_last - b <= params_.plain_side_reach_px) b = x_last;
+    if ((a == o.box.x && b == x_last) || b - a + 1 < params_.min_width_px) continue;
+    // The columns going must hold o's pixels in most of them (a streak, not a plain face's span
+    // between its outlines), and most of o's pixels must stay.
+    int kept = 0, held = 0;
+    for (int y = o.box.y; y < y_end; ++y) {
+      const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+      for (int x = a; x <= b; ++x) kept += lab[x] == o.label ? 1 : 0;
+    }
+    auto holds = [&](int x) {
+      for (int y = o.box.y; y < y_end; ++y)
+        if (labels.ptr<std::uint8_t>(y)[x] == o.label) return true;
+      return false;
+    };
+    for (int x = o.box.x; x < a; ++x) held += holds(x) ? 1 : 0;
+    for (int x = b + 1; x <= x_last; ++x) held += holds(x) ? 1 : 0;
+    const int going = o.box.width - (b - a + 1);
+    if (kept == o.feature_count || held < params_.streak_min_held_share * going ||
+        kept < params_.streak_keep_share * o.feature_count || kept < leastClusterFeatures())
+      continue;
+    trimmed += going;
+    narrowTo(o, a, b, labels);
+  }
+  return trimmed;
+}
+
 int ObstacleExtractor::trimForeignSides(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels,
                                         std::vector<ObstacleCluster>& obstacles, double focal_baseline) const {
   if (!params_.trim_foreign_sides || !(focal_baseline > 0.0)) return 0;

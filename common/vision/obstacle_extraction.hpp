@@ -111,6 +111,14 @@ struct ObstacleParams {
                                       // column pinning nothing, not only plain_side_reach_px of them ...
   double tall_side_keep_share = 0.5;  // ... when at least this share of its pixels stays
   bool drop_unpinned = true;       // an obstacle at one offset none of whose pixels pins it (away from its foot) is dropped
+  // A level streak of the ground beside an obstacle matches at its offset as well as at its own
+  // row's, and pins where its texture changes along the row: the pinning trims leave it.
+  bool trim_streak_sides = true;      // side columns with no pixel standing at the offset are trimmed ...
+  int streak_min_standing = 4;        // ... standing pixels a column needs to stay
+  double streak_top_share = 0.15;     // ... a pixel in this top share of the box's rows keeps the column
+                                      // (a head and shoulders, a roof line)
+  double streak_min_held_share = 0.5; // ... share of the trimmed columns that must hold the obstacle's pixels
+  double streak_keep_share = 0.5;     // ... share of its pixels that must stay
   // A person joined to something at the same offset by a link along the ground (the ground's
   // residue at their common foot row, a shadow's edge) is split there; person-sized parts are kept.
   bool split_ground_links = true;
@@ -238,6 +246,16 @@ struct ObstacleParams {
     v.field("drop_unpinned", drop_unpinned, 0, 1, "",
             "drop an obstacle at one offset none of whose pixels pins the offset away from its foot "
             "(matches of a plain surround or of level edges, alike at every offset)");
+    v.field("trim_streak_sides", trim_streak_sides, 0, 1, "",
+            "trim an obstacle's side columns none of whose pixels stands at its offset (level streaks of the ground)");
+    v.field("streak_min_standing", streak_min_standing, 1, 10000, "pixels",
+            "pixels standing at the offset (stride_max_cost, stride_cost_margin) a side column needs to stay");
+    v.field("streak_top_share", streak_top_share, 0.0, 1.0, "",
+            "a side column holding a pixel in this top share of the box's rows stays");
+    v.field("streak_min_held_share", streak_min_held_share, 0.0, 1.0, "",
+            "share of the trimmed columns that must hold the obstacle's pixels (not a plain face's span)");
+    v.field("streak_keep_share", streak_keep_share, 0.0, 1.0, "",
+            "share of the obstacle's pixels (and a remnant's least) that must stay");
     v.field("split_ground_links", split_ground_links, 0, 1, "",
             "keep the person-sized part of an obstacle joined to another by pixels at its foot only");
     v.field("link_min_part_width_m", link_min_part_width_m, 0.0, 10.0, "metres",
@@ -357,6 +375,21 @@ class ObstacleExtractor {
   // dropRemnants removes it). Returns the number of columns trimmed.
   int trimPlainSides(const cv::Mat& left, cv::Mat& labels, std::vector<ObstacleCluster>& obstacles,
                      const GroundProfile* ground = nullptr) const;
+
+  // Trims an obstacle's side columns that hold a level streak of the ground
+  // (ObstacleParams::trim_streak_sides): for an obstacle at one offset, from each side inwards
+  // up to the first column that holds a pixel of it in the box's top streak_top_share of rows or
+  // streak_min_standing pixels standing at its offset (their 5-pixel window matches the right
+  // image there, SAD <= stride_max_cost, lower by stride_cost_margin than at their row's line
+  // offset; rows at the foot, plain_side_contact_px, cannot tell). A streak matches at its own
+  // row's offset as well as at any other; a person's or an object's outline matches at its own.
+  // A side losing plain_side_reach_px columns or fewer keeps them (the outline's dilation, the
+  // plain-side trim's), and the trim is made only when at least streak_min_held_share of the
+  // columns going hold the obstacle's pixels (a streak, not a plain face's span between its
+  // outlines) and streak_keep_share of its pixels (and a remnant's least) stay. Returns the
+  // number of columns trimmed.
+  int trimStreakSides(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
+                      std::vector<ObstacleCluster>& obstacles) const;
 
   // Splits obstacles at one offset joined along the ground (ObstacleParams::split_ground_links):
   // a run of more than plain_side_reach_px columns holding none of the obstacle's pixels above

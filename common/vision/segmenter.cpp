@@ -140,6 +140,7 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
                               rig.focal_px * rig.baseline_m);
   obstacles_.splitGroundLinks(left_features, right_features, out.ground, out.labels, out.obstacles, rig.baseline_m);
   obstacles_.trimPlainSides(left_features, out.labels, out.obstacles, &out.ground);
+  obstacles_.trimStreakSides(left_features, right_features, out.ground, out.labels, out.obstacles);
   obstacles_.dropRemnants(out.labels, out.obstacles);
   obstacles_.extendStrides(left_features, right_features, out.ground, out.labels, out.obstacles, rig.baseline_m);
   out.timing_ms["obstacles"] += msSince(t_after);

@@ -497,6 +497,99 @@ TEST(ObstacleSides, ANeighbourAtACloseOffsetIsTrimmed) {
   EXPECT_EQ(trim(off, 389.0, box), 0);
 }
 
+// A textured pole (columns 60-65, rows 5-34, offset 20) before a background at offset 5, joined
+// by a streak of the ground over the 25 columns to its right (rows 24-26). The streak's texture
+// repeats every 15 columns, so it matches at 20 and at 5 alike, as a level streak matches at its
+// own row's offset as well as at the obstacle's; it changes along the row, so it pins the offset
+// and the pinning trims keep it. None of its pixels stands at 20: the streak goes, back to the
+// pole. A neighbour matching at 20 only (six rows, each column with more than
+// streak_min_standing pixels standing) stays; so does a streak in the box's top rows (a roof
+// line), a span whose columns mostly hold nothing (a plain face between its outlines), and, with
+// the rule off, the streak.
+struct StreakScene {
+  cv::Mat left, right, labels;
+  GroundProfile ground;
+  ObstacleCluster cluster;
+  StreakScene copy() const { return {left, right, labels.clone(), ground, cluster}; }  // the trims relabel
+};
+StreakScene streakScene(int row_from, int row_to, bool matches_at_the_line, int column_step) {
+  constexpr int kRows = 40, kCols = 120, kD = 20, kLine = 5;
+  StreakScene s;
+  s.left = cv::Mat::zeros(kRows, kCols, CV_8UC1);
+  s.right = cv::Mat::zeros(kRows, kCols, CV_8UC1);
+  s.labels = cv::Mat::zeros(kRows, kCols, CV_8UC1);
+  // Neighbours differ by more than the grey tolerance everywhere; with matches_at_the_line the
+  // texture repeats every kD - kLine columns, otherwise it does not repeat.
+  cv::RNG rng(11);
+  std::vector<std::uint8_t> texture(kCols);
+  for (int x = 0; x < kCols; ++x)
+    texture[static_cast<std::size_t>(x)] =
+        matches_at_the_line && x >= kD - kLine ? texture[static_cast<std::size_t>(x - (kD - kLine))]
+        : x % 2 ? static_cast<std::uint8_t>(rng.uniform(140, 230)) : static_cast<std::uint8_t>(rng.uniform(30, 110));
+  for (int y = row_from; y <= row_to; ++y)
+    for (int x = 0; x < kCols; ++x) {
+      s.left.at<std::uint8_t>(y, x) = texture[static_cast<std::size_t>(x)];
+      if (x - kD >= 0) s.right.at<std::uint8_t>(y, x - kD) = texture[static_cast<std::size_t>(x)];
+    }
+  for (int y = 5; y < 35; ++y)
+    for (int x = 60; x < 66; ++x) {
+      const auto g = static_cast<std::uint8_t>(rng.uniform(30, 230));
+      s.left.at<std::uint8_t>(y, x) = g;
+      s.right.at<std::uint8_t>(y, x - kD) = g;
+      s.labels.at<std::uint8_t>(y, x) = kLabelFirstObstacle;
+    }
+  for (int y = row_from; y <= row_to; ++y)
+    for (int x = 66; x <= 90; x += column_step) s.labels.at<std::uint8_t>(y, x) = kLabelFirstObstacle;
+  s.ground.source = GroundSource::kHough;
+  s.ground.horizon_row = kRows;  // every row's line is the background's
+  s.ground.background_offset = kLine;
+  s.ground.offset_per_row.assign(kRows, GroundProfile::kUnknown);
+  s.cluster.offset_px = s.cluster.min_offset_px = s.cluster.max_offset_px = kD;
+  s.cluster.box = cv::Rect(60, 5, 31, 30);
+  s.cluster.feature_count = cv::countNonZero(s.labels == kLabelFirstObstacle);
+  return s;
+}
+
+TEST(ObstacleSides, LevelStreakBesideAnObstacleIsTrimmed) {
+  auto trim = [](const ObstacleParams& params, const StreakScene& scene, int& trimmed) {
+    StreakScene s = scene.copy();
+    std::vector<ObstacleCluster> obstacles{s.cluster};
+    trimmed = ObstacleExtractor(params).trimStreakSides(s.left, s.right, s.ground, s.labels, obstacles);
+    for (int y = 0; y < s.labels.rows; ++y) {
+      for (int x = 0; x < s.labels.cols; ++x) {
+        if (s.labels.at<std::uint8_t>(y, x) == kLabelFirstObstacle) {
+          EXPECT_TRUE(obstacles[0].box.contains({x, y})) << x << "," << y;
+        }
+      }
+    }
+    return obstacles[0].box;
+  };
+  const ObstacleParams defaults;
+  ASSERT_LT(30.0, defaults.tall_side_min_aspect * 31);  // not a tall obstacle: that trim does not reach it
+  int trimmed = 0;
+  const StreakScene streak = streakScene(24, 26, true, 1);
+  EXPECT_EQ(trim(defaults, streak, trimmed), cv::Rect(60, 5, 6, 30));
+  EXPECT_EQ(trimmed, 25);
+  // The pinning trims keep it: its texture changes along the row.
+  {
+    StreakScene s = streak.copy();
+    std::vector<ObstacleCluster> obstacles{s.cluster};
+    ObstacleExtractor(defaults).trimPlainSides(s.left, s.labels, obstacles, &s.ground);
+    EXPECT_EQ(obstacles[0].box, s.cluster.box);
+  }
+  ObstacleParams off;
+  off.trim_streak_sides = false;
+  EXPECT_EQ(trim(off, streak, trimmed), streak.cluster.box);
+  EXPECT_EQ(trimmed, 0);
+
+  const StreakScene neighbour = streakScene(21, 26, false, 1);
+  EXPECT_EQ(trim(defaults, neighbour, trimmed), neighbour.cluster.box);
+  const StreakScene roof_line = streakScene(5, 7, true, 1);
+  EXPECT_EQ(trim(defaults, roof_line, trimmed), roof_line.cluster.box);
+  const StreakScene plain_span = streakScene(24, 26, true, 4);  // a pixel in every fourth column
+  EXPECT_EQ(trim(defaults, plain_span, trimmed), plain_span.cluster.box);
+}
+
 // Segments `scene` with `p`; the last obstacle with IoU >= 0.5 against `truth`, or null.
 const ObstacleCluster* segmentAndFind(const test::AnalyticScene& scene, const SegmenterParams& p,
                                       const cv::Rect& truth, SegmentationResult& r) {

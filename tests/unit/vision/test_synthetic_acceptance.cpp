@@ -824,6 +824,18 @@ TEST(SyntheticObstacles, TallObstaclesLoseTheirUnpinnedSides) {
   expectFoundOnlyWithTheStep(reach_only, "Misc", {{578, 105}});
 }
 
+// Beside a far person, level streaks of the ground at the person's offset (far ground rows whose
+// texture runs along the row) joined the cluster and pin its offset where their grey changes; the
+// box, no taller than 1.5 widths, escapes the tall obstacles' trim. None of the streak's pixels
+// stands at the person's offset rather than at its own row's: seed 210's person (29 m, the box
+// 31 px too wide on the right), seed 490's (27 m) and seed 598's (21 m, 34 px) reach IoU 0.5
+// once those columns go.
+TEST(SyntheticObstacles, LevelStreaksBesidePeopleAreTrimmed) {
+  SegmenterParams kept;
+  kept.obstacles.trim_streak_sides = false;
+  expectFoundOnlyWithTheStep(kept, "Pedestrian", {{210, 394}, {490, 819}, {598, 637}});
+}
+
 // A link's columns count as a plain face's (its upper outline crossing them) only when they are
 // plain: textured hills behind a link match along the box's top by chance, and seed 33's two far
 // people 1.7 px apart, seed 541's person joined to the ground's residue, stayed joined. The
