@@ -120,6 +120,17 @@ LabelMap unchangedLabels() {
   return map;
 }
 
+// Pixels of obstacle o in columns [x0, x1] of its box's rows (counted row by row: the rows are
+// contiguous in memory).
+int pixelsOf(const cv::Mat& labels, const ObstacleCluster& o, int x0, int x1) {
+  int n = 0;
+  for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
+    const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+    for (int x = x0; x <= x1; ++x) n += lab[x] == o.label ? 1 : 0;
+  }
+  return n;
+}
+
 // The left and right feature images and the label image: mono8, all of one size.
 void requireMono8Pair(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels) {
   if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() || labels.size() != left.size() ||
@@ -1636,18 +1647,10 @@ int ObstacleExtractor::trimStreakSides(const cv::Mat& left, const cv::Mat& right
     if ((a == o.box.x && b == x_last) || b - a + 1 < params_.min_width_px) continue;
     // The columns going must hold o's pixels in most of them (a streak, not a plain face's span
     // between its outlines), and most of o's pixels must stay.
-    int kept = 0, held = 0;
-    for (int y = o.box.y; y < y_end; ++y) {
-      const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
-      for (int x = a; x <= b; ++x) kept += lab[x] == o.label ? 1 : 0;
-    }
-    auto holds = [&](int x) {
-      for (int y = o.box.y; y < y_end; ++y)
-        if (labels.ptr<std::uint8_t>(y)[x] == o.label) return true;
-      return false;
-    };
-    for (int x = o.box.x; x < a; ++x) held += holds(x) ? 1 : 0;
-    for (int x = b + 1; x <= x_last; ++x) held += holds(x) ? 1 : 0;
+    const int kept = pixelsOf(labels, o, a, b);
+    int held = 0;
+    for (int x = o.box.x; x <= x_last; ++x)
+      if (x < a || x > b) held += pixelsOf(labels, o, x, x) > 0 ? 1 : 0;
     const int going = o.box.width - (b - a + 1);
     if (kept == o.feature_count || held < params_.streak_min_held_share * going ||
         kept < params_.streak_keep_share * o.feature_count || kept < leastClusterFeatures())
@@ -1909,11 +1912,7 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
       // less than thin_side_share of its fullest column's pixels are residue beside it (ground
       // texture near the horizon, chance matches of the hills), which the plain-side trim below,
       // limited to the outline's reach, leaves when they pin an offset.
-      auto count = [&](int x) {
-        int n = 0;
-        for (int y = o.box.y; y < o.box.y + o.box.height; ++y) n += labels.ptr<std::uint8_t>(y)[x] == o.label ? 1 : 0;
-        return n;
-      };
+      auto count = [&](int x) { return pixelsOf(labels, o, x, x); };
       int fullest = 0;
       for (int x = o.box.x; x < o.box.x + o.box.width; ++x) fullest = std::max(fullest, count(x));
       const double least = params_.thin_side_share * fullest;
@@ -1955,11 +1954,7 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
         o.box.height >= params_.tall_side_min_aspect * o.box.width) {
       int a = 0, b = 0;
       trimmedTo(o.box.width, a, b);
-      int kept = 0;  // counted row by row: the rows are contiguous in memory
-      for (int y = o.box.y; y < o.box.y + o.box.height; ++y) {
-        const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
-        for (int x = a; x <= b; ++x) kept += lab[x] == o.label ? 1 : 0;
-      }
+      const int kept = pixelsOf(labels, o, a, b);
       if (kept >= params_.tall_side_keep_share * o.feature_count && kept >= leastClusterFeatures()) {
         x0 = a;
         x1 = b;

@@ -30,7 +30,8 @@
 //    face receding in depth whose top outline runs between them (joinRecedingParts); a part of a
 //    plain face receding in depth grows along its predicted top outline (growAlongTopOutline); last, side columns
 //    whose pixels do not pin the offset (the feature mask's reach into a plain surround) are
-//    trimmed (trimPlainSides).
+//    trimmed (trimPlainSides), and so are side columns none of whose pixels stands at the
+//    offset rather than at their row's ground (level streaks of the ground, trimStreakSides).
 #include <algorithm>
 #include <array>
 #include <cstdint>
