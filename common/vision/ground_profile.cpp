@@ -653,6 +653,35 @@ std::optional<GroundLine> GroundEstimator::farSegment(const cv::Mat& score, cons
   return far;
 }
 
+bool GroundEstimator::farSegmentWinsOnItsRows(const cv::Mat& score, const cv::Mat& matches, const GroundLine& line,
+                                               const GroundLine& far, int row_begin, int junction) {
+  if (!(params_.far_share_ratio > 0.0)) return false;
+  const int rows = score.rows;
+  // The background the segment would meet, as the line alone leaves it (as farSegment finds it).
+  line_rows_.resize(static_cast<std::size_t>(rows));
+  for (int y = 0; y < rows; ++y) line_rows_[static_cast<std::size_t>(y)] = static_cast<float>(line.offsetAt(y));
+  const double tol = params_.support_tolerance_px;
+  const int h1 = std::clamp(static_cast<int>(std::ceil(line.horizon_row)), 0, rows);
+  const double ground_above = static_cast<double>(backgroundOffset(score, matches, h1, line_rows_)) + tol;
+  // Rows next to the junction lie within the tolerance of both: they count for neither.
+  const int shared = static_cast<int>(std::floor(tol / std::abs(line.slope - far.slope)));
+  int line_rows = 0, line_supported = 0, far_rows = 0, far_supported = 0;
+  for (int y = std::max(row_begin, 0); y < std::min(junction - shared, rows); ++y) {
+    const double dl = line.offsetAt(y), df = far.offsetAt(y);
+    if (dl > ground_above && dl < score.cols - 1) {
+      ++line_rows;
+      line_supported += peakNear(y, dl) ? 1 : 0;
+    }
+    if (df > ground_above && df < score.cols - 1) {
+      ++far_rows;
+      far_supported += peakNear(y, df) ? 1 : 0;
+    }
+  }
+  // far_supported / far_rows >= ratio * line_supported / line_rows, without the divisions.
+  return far_supported >= params_.far_share_min_rows &&
+         static_cast<double>(far_supported) * line_rows >= params_.far_share_ratio * line_supported * far_rows;
+}
+
 float GroundEstimator::backgroundOffset(const cv::Mat& score, const cv::Mat& matches, int rows_above,
                                         const std::vector<float>& ground_per_row) {
   const int rows = std::clamp(rows_above, 0, score.rows);
@@ -1216,7 +1245,7 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const cv::Mat& matches, 
           const int a2 = support(*l2, top, j, offsets, nullptr);
           const int b1 = support(*l1, j, rows, offsets, nullptr);
           const int b2 = support(*l2, j, rows, offsets, nullptr);
-          if (a2 > a1 && a2 >= params_.min_segment_rows) {
+          if ((a2 > a1 && a2 >= params_.min_segment_rows) || farSegmentWinsOnItsRows(score, matches, *l1, *l2, top, j)) {
             second_far = true;
             *l2 = refit(*l2, top, j);
             l2->support_rows = support(*l2, top, j, offsets, nullptr);

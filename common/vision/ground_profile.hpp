@@ -49,6 +49,13 @@ struct GroundParams {
   // min_segment_rows more rows above its junction than the line does.
   bool far_segment_search = true;
   double far_min_slope_ratio = 0.2;   // flattest far segment, as a share of the line's slope
+  // The second pass's segment farther than its junction also replaces the line above it when,
+  // over the rows where each is the ground (beyond the background), its share of supported rows
+  // is far_share_ratio times the line's, on at least far_share_min_rows rows. A crest or a dip
+  // ahead shows a steep far segment on few rows, while the line's extension crosses the offsets
+  // of what stands there at a shallow angle and gathers their chance peaks row after row.
+  double far_share_ratio = 2.0;       // 0: only the row counts decide
+  int far_share_min_rows = 8;
   // Background line above the horizon.
   float min_background_score = 0.5f;  // summed score of the best background column; below: offset 0 (infinity)
   double background_row_share = 0.3;  // a row's background score: its matches over at least this share of the width
@@ -96,6 +103,11 @@ struct GroundParams {
             "with piecewise: search a far segment meeting the line at a junction row (slope change ahead)");
     v.field("far_min_slope_ratio", far_min_slope_ratio, 0.0, 1.0, "",
             "flattest far segment as a share of the line's slope (a rise ahead; flatter: poles standing)");
+    v.field("far_share_ratio", far_share_ratio, 0.0, 100.0, "",
+            "with piecewise: a far segment of the second pass replaces the line above their junction when its share "
+            "of supported rows, where each is the ground, is this many times the line's (0: off)");
+    v.field("far_share_min_rows", far_share_min_rows, 1, 100000, "rows",
+            "supported rows such a far segment needs");
     v.field("min_segment_rows", min_segment_rows, 1, 100000, "rows", "support needed by the second segment");
     v.field("min_background_score", min_background_score, 0.0, 1e9, "score", "weakest accepted background line");
     v.field("background_row_share", background_row_share, 0.0, 1.0, "",
@@ -228,6 +240,13 @@ class GroundEstimator {
   // must stay supported below the junction on min_segment_rows rows. Kept when it explains at
   // least min_segment_rows more rows than the line, also once refitted to its peaks.
   std::optional<GroundLine> farSegment(const cv::Mat& score, const cv::Mat& matches, const GroundLine& line);
+  // Whether `far` (the second pass's segment, farther than the junction row `junction`) explains
+  // the rows from row_begin to the junction better than `line`: on the rows where each is the
+  // ground (beyond the background by support_tolerance_px), away from the junction's shared
+  // rows, it is supported on far_share_min_rows rows or more and on far_share_ratio times the
+  // line's share of its rows.
+  bool farSegmentWinsOnItsRows(const cv::Mat& score, const cv::Mat& matches, const GroundLine& line,
+                               const GroundLine& far, int row_begin, int junction);
   // Row y has a peak within support_tolerance_px of offset d.
   bool peakNear(int y, double d) const;
   int support(const GroundLine& line, int row_begin, int row_end, int offsets, int* crossed) const;
