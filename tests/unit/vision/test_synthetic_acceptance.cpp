@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <initializer_list>
+#include <string>
 #include <utility>
 
 #include <gtest/gtest.h>
@@ -235,6 +236,21 @@ TEST(SyntheticGround, WeakTextureScenesOverManySeeds) {
   EXPECT_GE(n.after, n.scenes * 3 / 5);
 }
 
+// A textured slope-change scene (seed) whose measured ground is within +-1 on 90 % of its rows
+// with the defaults, and not with `without`.
+void expectSlopeChangeFollowedOnlyWith(std::uint64_t seed, const SegmenterParams& without) {
+  SCOPED_TRACE("seed " + std::to_string(seed));
+  const SyntheticSceneParams p = randomSceneParams(seed);
+  ASSERT_EQ(p.terrain, TerrainProfile::kSlopeChange);
+  ASSERT_FALSE(p.weak_ground_texture);
+  const StereoPair pair = renderSyntheticScene(p, seed);
+  ASSERT_TRUE(pair.truth);
+  const SegmentationResult r = segment(pair);
+  EXPECT_EQ(r.ground.source, GroundSource::kHough);
+  EXPECT_GE(groundRowsWithin1(r.ground, *pair.truth, 128), 0.9);
+  EXPECT_LT(groundRowsWithin1(segment(pair, without).ground, *pair.truth, 128), 0.9);
+}
+
 // A slope change ahead whose far part only the rows near the horizon show: the far segment
 // meeting the line at a junction row. Seed 178's far ground rises (a flatter segment, about
 // 0.19 against the line's 0.33 px per row), seed 143's falls away (a steeper one, about 0.59).
@@ -242,22 +258,12 @@ TEST(SyntheticGround, WeakTextureScenesOverManySeeds) {
 TEST(SyntheticGround, FarSegmentOfASlopeChangeAheadIsFollowed) {
   SegmenterParams without;
   without.ground.far_segment_search = false;
-  for (const std::uint64_t seed : {178u, 143u}) {
-    const SyntheticSceneParams p = randomSceneParams(seed);
-    ASSERT_EQ(p.terrain, TerrainProfile::kSlopeChange);
-    ASSERT_FALSE(p.weak_ground_texture);
-    const StereoPair pair = renderSyntheticScene(p, seed);
-    ASSERT_TRUE(pair.truth);
-    const SegmentationResult r = segment(pair);
-    EXPECT_EQ(r.ground.source, GroundSource::kHough) << "seed " << seed;
-    EXPECT_GE(groundRowsWithin1(r.ground, *pair.truth, 128), 0.9) << "seed " << seed;
-    EXPECT_LT(groundRowsWithin1(segment(pair, without).ground, *pair.truth, 128), 0.9) << "seed " << seed;
-  }
+  for (const std::uint64_t seed : {178u, 143u}) expectSlopeChangeFollowedOnlyWith(seed, without);
 }
 
 // A crest ahead (seeds 59 and 156): the far ground falls away steeply (0.7 and 1.2 offset px
-// per row against the line's 0.33) and shows on 20-25 rows only. The second Hough pass finds it, but
-// counted over the same rows the line's extension has as many supported rows: it crosses the
+// per row against the line's 0.33) and shows on 20-25 rows only. The second Hough pass finds it,
+// but counted over the same rows the line's extension has as many supported rows: it crosses the
 // offsets of the people and boxes standing there at a shallow angle, gathering their peaks row
 // after row. Over the rows where each is the ground, the far segment's share is several times
 // the line's. (Over the 47 textured slope changes of seeds 1-200, 41 -> 43 scenes within +-1
@@ -265,16 +271,7 @@ TEST(SyntheticGround, FarSegmentOfASlopeChangeAheadIsFollowed) {
 TEST(SyntheticGround, SteepFarSegmentIsJudgedOnTheRowsWhereItIsTheGround) {
   SegmenterParams without;
   without.ground.far_share_ratio = 0.0;
-  for (const std::uint64_t seed : {59u, 156u}) {
-    const SyntheticSceneParams p = randomSceneParams(seed);
-    ASSERT_EQ(p.terrain, TerrainProfile::kSlopeChange);
-    const StereoPair pair = renderSyntheticScene(p, seed);
-    ASSERT_TRUE(pair.truth);
-    const SegmentationResult r = segment(pair);
-    EXPECT_EQ(r.ground.source, GroundSource::kHough) << "seed " << seed;
-    EXPECT_GE(groundRowsWithin1(r.ground, *pair.truth, 128), 0.9) << "seed " << seed;
-    EXPECT_LT(groundRowsWithin1(segment(pair, without).ground, *pair.truth, 128), 0.9) << "seed " << seed;
-  }
+  for (const std::uint64_t seed : {59u, 156u}) expectSlopeChangeFollowedOnlyWith(seed, without);
 }
 
 // Over every textured slope-change scene of seeds 1-200 (47 scenes): more of them get their
