@@ -50,10 +50,11 @@ struct GroundParams {
   bool far_segment_search = true;
   double far_min_slope_ratio = 0.2;   // flattest far segment, as a share of the line's slope
   // The second pass's segment farther than its junction also replaces the line above it when,
-  // over the rows where each is the ground (beyond the background), its share of supported rows
-  // is far_share_ratio times the line's, on at least far_share_min_rows rows. A crest or a dip
-  // ahead shows a steep far segment on few rows, while the line's extension crosses the offsets
-  // of what stands there at a shallow angle and gathers their chance peaks row after row.
+  // over the rows where each is the ground (its offset above the background's), its share of
+  // supported rows is far_share_ratio times the line's, on at least far_share_min_rows rows. A
+  // crest or a dip ahead shows a steep far segment on few rows, while the line's extension
+  // crosses the offsets of what stands there at a shallow angle and gathers their chance peaks
+  // row after row.
   double far_share_ratio = 2.0;       // 0: only the row counts decide
   int far_share_min_rows = 8;
   // Background line above the horizon.
@@ -242,9 +243,9 @@ class GroundEstimator {
   std::optional<GroundLine> farSegment(const cv::Mat& score, const cv::Mat& matches, const GroundLine& line);
   // Whether `far` (the second pass's segment, farther than the junction row `junction`) explains
   // the rows from row_begin to the junction better than `line`: on the rows where each is the
-  // ground (beyond the background by support_tolerance_px), away from the junction's shared
-  // rows, it is supported on far_share_min_rows rows or more and on far_share_ratio times the
-  // line's share of its rows.
+  // ground (its offset above the background's by more than support_tolerance_px), away from the
+  // junction's shared rows, it is supported on far_share_min_rows rows or more and on
+  // far_share_ratio times the line's share of its rows.
   bool farSegmentWinsOnItsRows(const cv::Mat& score, const cv::Mat& matches, const GroundLine& line,
                                const GroundLine& far, int row_begin, int junction);
   // Row y has a peak within support_tolerance_px of offset d.
