@@ -1245,7 +1245,8 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const cv::Mat& matches, 
           const int a2 = support(*l2, top, j, offsets, nullptr);
           const int b1 = support(*l1, j, rows, offsets, nullptr);
           const int b2 = support(*l2, j, rows, offsets, nullptr);
-          if ((a2 > a1 && a2 >= params_.min_segment_rows) || farSegmentWinsOnItsRows(score, matches, *l1, *l2, top, j)) {
+          if ((a2 > a1 && a2 >= params_.min_segment_rows) ||
+              farSegmentWinsOnItsRows(score, matches, *l1, *l2, top, j)) {
             second_far = true;
             *l2 = refit(*l2, top, j);
             l2->support_rows = support(*l2, top, j, offsets, nullptr);
