@@ -467,11 +467,12 @@ bool GroundEstimator::peakNear(int y, double d) const {
   return false;
 }
 
-int GroundEstimator::support(const GroundLine& line, int row_begin, int row_end, int offsets, int* crossed) const {
+int GroundEstimator::support(const GroundLine& line, int row_begin, int row_end, int offsets, int* crossed,
+                             double above) const {
   int count = 0, seen = 0;
   for (int y = std::max(row_begin, 0); y < row_end; ++y) {
     const double d = line.offsetAt(y);
-    if (d < 0.5 || d > offsets - 1) continue;
+    if (d < 0.5 || d <= above || d > offsets - 1) continue;
     ++seen;
     count += peakNear(y, d) ? 1 : 0;
   }
@@ -507,17 +508,26 @@ GroundLine GroundEstimator::refit(const GroundLine& line, int row_begin, int row
   return out;
 }
 
+double GroundEstimator::groundFloor(const cv::Mat& score, const cv::Mat& matches, const GroundLine& line,
+                                    std::optional<double>& floor) {
+  if (floor) return *floor;
+  const int rows = score.rows;
+  const int h1 = std::clamp(static_cast<int>(std::ceil(line.horizon_row)), 0, rows);
+  // The background the far ground would meet, as the line alone leaves it.
+  line_rows_.resize(static_cast<std::size_t>(rows));
+  for (int y = 0; y < rows; ++y) line_rows_[static_cast<std::size_t>(y)] = static_cast<float>(line.offsetAt(y));
+  floor = static_cast<double>(backgroundOffset(score, matches, h1, line_rows_)) + params_.support_tolerance_px;
+  return *floor;
+}
+
 std::optional<GroundLine> GroundEstimator::farSegment(const cv::Mat& score, const cv::Mat& matches,
-                                                      const GroundLine& line) {
+                                                      const GroundLine& line, std::optional<double>& floor) {
   const int rows = score.rows;
   const int h1 = std::clamp(static_cast<int>(std::ceil(line.horizon_row)), 0, rows);
   const int need = params_.min_segment_rows;
   if (rows - h1 < 2 * need) return std::nullopt;
-  // The background the segment would meet, as the line alone leaves it.
-  line_rows_.resize(static_cast<std::size_t>(rows));
-  for (int y = 0; y < rows; ++y) line_rows_[static_cast<std::size_t>(y)] = static_cast<float>(line.offsetAt(y));
   const double tol = params_.support_tolerance_px;
-  const double ground_above = static_cast<double>(backgroundOffset(score, matches, h1, line_rows_)) + tol;
+  const double ground_above = groundFloor(score, matches, line, floor);
   // Rows supporting the line where the segment would be ground (the line is the background
   // where it is farther), as prefix sums. The rows that can support the segment and not the
   // line (a peak farther than the background, none on the line) vote; a bound on what a
@@ -654,29 +664,16 @@ std::optional<GroundLine> GroundEstimator::farSegment(const cv::Mat& score, cons
 }
 
 bool GroundEstimator::farSegmentWinsOnItsRows(const cv::Mat& score, const cv::Mat& matches, const GroundLine& line,
-                                               const GroundLine& far, int row_begin, int junction) {
+                                               const GroundLine& far, int row_begin, int junction,
+                                               std::optional<double>& floor) {
   if (!(params_.far_share_ratio > 0.0)) return false;
-  const int rows = score.rows;
-  // The background the segment would meet, as the line alone leaves it (as farSegment finds it).
-  line_rows_.resize(static_cast<std::size_t>(rows));
-  for (int y = 0; y < rows; ++y) line_rows_[static_cast<std::size_t>(y)] = static_cast<float>(line.offsetAt(y));
-  const double tol = params_.support_tolerance_px;
-  const int h1 = std::clamp(static_cast<int>(std::ceil(line.horizon_row)), 0, rows);
-  const double ground_above = static_cast<double>(backgroundOffset(score, matches, h1, line_rows_)) + tol;
+  const double ground_above = groundFloor(score, matches, line, floor);
   // Rows next to the junction lie within the tolerance of both: they count for neither.
-  const int shared = static_cast<int>(std::floor(tol / std::abs(line.slope - far.slope)));
-  int line_rows = 0, line_supported = 0, far_rows = 0, far_supported = 0;
-  for (int y = std::max(row_begin, 0); y < std::min(junction - shared, rows); ++y) {
-    const double dl = line.offsetAt(y), df = far.offsetAt(y);
-    if (dl > ground_above && dl < score.cols - 1) {
-      ++line_rows;
-      line_supported += peakNear(y, dl) ? 1 : 0;
-    }
-    if (df > ground_above && df < score.cols - 1) {
-      ++far_rows;
-      far_supported += peakNear(y, df) ? 1 : 0;
-    }
-  }
+  const int shared = static_cast<int>(std::floor(params_.support_tolerance_px / std::abs(line.slope - far.slope)));
+  const int row_end = std::min(junction - shared, score.rows);
+  int line_rows = 0, far_rows = 0;
+  const int line_supported = support(line, row_begin, row_end, score.cols, &line_rows, ground_above);
+  const int far_supported = support(far, row_begin, row_end, score.cols, &far_rows, ground_above);
   // far_supported / far_rows >= ratio * line_supported / line_rows, without the divisions.
   return far_supported >= params_.far_share_min_rows &&
          static_cast<double>(far_supported) * line_rows >= params_.far_share_ratio * line_supported * far_rows;
@@ -1228,6 +1225,7 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const cv::Mat& matches, 
   if (measured) {
     main_line_ = l1;
     bool second_far = false;  // second segment above (farther than) the junction
+    std::optional<double> ground_floor;  // groundFloor of the line, once either test needs it
     if (params_.piecewise) {
       const double tol = 2.0 * params_.support_tolerance_px;
       for (std::size_t i = 0; i < peaks_.size(); ++i) {
@@ -1246,7 +1244,7 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const cv::Mat& matches, 
           const int b1 = support(*l1, j, rows, offsets, nullptr);
           const int b2 = support(*l2, j, rows, offsets, nullptr);
           if ((a2 > a1 && a2 >= params_.min_segment_rows) ||
-              farSegmentWinsOnItsRows(score, matches, *l1, *l2, top, j)) {
+              farSegmentWinsOnItsRows(score, matches, *l1, *l2, top, j, ground_floor)) {
             second_far = true;
             *l2 = refit(*l2, top, j);
             l2->support_rows = support(*l2, top, j, offsets, nullptr);
@@ -1266,7 +1264,7 @@ void GroundEstimator::computeImpl(const cv::Mat& score, const cv::Mat& matches, 
       // meeting the line where it explains more rows than the line's extension replaces it.
       if ((!second_line_ || second_far) && params_.far_segment_search && !needs_corroboration_) {
         // farSegment returns only a segment whose junction lies inside the ground rows.
-        if (std::optional<GroundLine> far = farSegment(score, matches, *l1)) {
+        if (std::optional<GroundLine> far = farSegment(score, matches, *l1, ground_floor)) {
           second_line_ = far;
           second_far = true;
           junction = l1->junctionRow(*far);

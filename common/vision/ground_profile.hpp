@@ -11,6 +11,7 @@
 //  - when the ground texture is too weak (too little support), the line of the
 //    previous frame (if recent) or the rig's mounting prior is used, and the
 //    profile says so in GroundProfile::source.
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -240,17 +241,27 @@ class GroundEstimator {
   // rows next to the junction where the two lie within the tolerance of each other. The line
   // must stay supported below the junction on min_segment_rows rows. Kept when it explains at
   // least min_segment_rows more rows than the line, also once refitted to its peaks.
-  std::optional<GroundLine> farSegment(const cv::Mat& score, const cv::Mat& matches, const GroundLine& line);
+  // `floor`: the line's groundFloor, computed here on first use.
+  std::optional<GroundLine> farSegment(const cv::Mat& score, const cv::Mat& matches, const GroundLine& line,
+                                       std::optional<double>& floor);
+  // The offset a row's ground must exceed to be ground rather than background beyond `line`:
+  // the background the line alone leaves (backgroundOffset over the rows above its horizon) plus
+  // support_tolerance_px. Kept in `floor` on first use; read from it after.
+  double groundFloor(const cv::Mat& score, const cv::Mat& matches, const GroundLine& line,
+                     std::optional<double>& floor);
   // Whether `far` (the second pass's segment, farther than the junction row `junction`) explains
   // the rows from row_begin to the junction better than `line`: on the rows where each is the
   // ground (its offset above the background's by more than support_tolerance_px), away from the
   // junction's shared rows, it is supported on far_share_min_rows rows or more and on
   // far_share_ratio times the line's share of its rows.
   bool farSegmentWinsOnItsRows(const cv::Mat& score, const cv::Mat& matches, const GroundLine& line,
-                               const GroundLine& far, int row_begin, int junction);
+                               const GroundLine& far, int row_begin, int junction, std::optional<double>& floor);
   // Row y has a peak within support_tolerance_px of offset d.
   bool peakNear(int y, double d) const;
-  int support(const GroundLine& line, int row_begin, int row_end, int offsets, int* crossed) const;
+  // Rows in [row_begin, row_end) where the line's offset lies in [0.5, offsets - 1] and above
+  // `above`, and (the return) those of them supporting it (peakNear).
+  int support(const GroundLine& line, int row_begin, int row_end, int offsets, int* crossed,
+              double above = -std::numeric_limits<double>::infinity()) const;
   GroundLine refit(const GroundLine& line, int row_begin, int row_end) const;
   // The offset dominating the score of the first `rows_above` rows whose background would not
   // hide measured ground: a background at offset b hides every ground row nearer than b. With
@@ -316,7 +327,7 @@ class GroundEstimator {
   };
   std::vector<OpenGroup> open_groups_;  // groups neither scanned nor dropped
   std::vector<float> background_sums_;
-  std::vector<float> line_rows_;          // farSegment: the line's offset per row
+  std::vector<float> line_rows_;          // groundFloor: the line's offset per row
   std::vector<int> line_support_;         // farSegment: rows supporting the line, prefix sums
   std::vector<int> far_bound_;            // farSegment: most rows a segment ending at a row can gain
   std::vector<int> far_votes_;            // farSegment: per junction row, rows voting (difference array)
