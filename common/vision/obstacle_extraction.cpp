@@ -1181,9 +1181,19 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
           if (y1 < lowest_shown - allowed) {
             // Weakly textured lower parts (legs, a plain lower body) fall below the histogram's
             // fraction of the peak: the cluster still stands on the ground when most rows down
-            // to there keep some match at d* inside its columns.
+            // to there keep some match at d* inside its columns. Below a cluster wide enough
+            // (plain_support_min_width_m), rows without a single feature pixel in its columns are
+            // left out: a plain lower body (a vehicle's side, a wall's plaster) shows nothing at
+            // any offset there, and neither holds the cluster up nor shows the ground through it.
+            // Under a narrow part such rows are common by chance and still count.
             int rows_with_match = 0, rows_seen = 0;
+            const bool plain_neutral = params_.plain_support_min_width_m > 0.0 && best > 0 &&
+                                       (x1 - x0 + 1) * baseline_m / best >= params_.plain_support_min_width_m;
             for (int y = y1 + 1; y <= lowest_shown; ++y) {
+              if (plain_neutral) {
+                const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+                if (std::all_of(lab + x0, lab + x1 + 1, [](std::uint8_t v) { return v == kLabelNone; })) continue;
+              }
               ++rows_seen;
               const std::uint8_t* l = remaining.ptr<std::uint8_t>(y);
               for (int x = x0; x <= x1; ++x)

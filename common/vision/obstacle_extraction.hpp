@@ -73,6 +73,8 @@ struct ObstacleParams {
   double contact_tolerance_fraction = 0.35;  // ... or this fraction of its height, whichever is larger
   double min_support_fraction = 0.5;  // share of the rows below a cluster, down to the last row it could show
                                       // in, that must keep a match at its offset for it to stand (legs)
+  double plain_support_min_width_m = 0.5;  // clusters at least this wide (metres; 0: none) leave rows without a
+                                           // feature pixel in their columns out of that share (a plain lower body)
   double ground_clearance_px = 2.5;  // rows whose ground offset is within this of d are left out (ground residue)
   double background_margin_px = 1.5;  // offsets within this of the background line are background residue
   double max_range_m = 50.0;        // offsets of farther obstacles are not searched (0: no limit): a 1.7 m
@@ -200,6 +202,8 @@ struct ObstacleParams {
     v.field("contact_tolerance_fraction", contact_tolerance_fraction, 0.0, 10.0, "", "same, fraction of the height");
     v.field("min_support_fraction", min_support_fraction, 0.0, 1.0, "",
             "rows below a cluster, down to the last it could show in, that must keep a match");
+    v.field("plain_support_min_width_m", plain_support_min_width_m, 0.0, 1000.0, "metres",
+            "clusters this wide leave featureless rows below them out of the support share (0: none)");
     v.field("ground_clearance_px", ground_clearance_px, 0.0, 100.0, "pixels",
             "histograms of offset d skip rows whose ground offset is above d minus this");
     v.field("background_margin_px", background_margin_px, 0.0, 100.0, "pixels", "background residue margin");
