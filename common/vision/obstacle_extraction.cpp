@@ -2407,14 +2407,22 @@ int ObstacleExtractor::growAlongTopOutline(const cv::Mat& left, const cv::Mat& r
       // One hypothesis: the face's top at the part in row ys, its offset slope k.
       int best_ys = -1;
       // Below the outline at column x (offset d there): the face's rows without a margin at its
-      // top and foot, and how many of their features do not match d.
-      auto belowOutline = [&](int x, double d, double h, long& area, long& other) {
+      // top and foot (none when y1 < y0).
+      struct FaceRows {
+        int y0, y1;
+        long count() const { return std::max(0, y1 - y0 + 1); }
+      };
+      auto faceRows = [&](int x, double d, double h) {
         const double c = contactOf(d, x);
         const double yt = c - h * d / baseline_m;
         const int m = std::max(2, static_cast<int>((c - yt) / 8));
-        const int y_last = std::min(rows - 1, static_cast<int>(std::lround(c)) - m);
-        for (int y = std::max(0, static_cast<int>(std::lround(yt)) + m); y <= y_last; ++y) {
-          ++area;
+        return FaceRows{std::max(0, static_cast<int>(std::lround(yt)) + m),
+                        std::min(rows - 1, static_cast<int>(std::lround(c)) - m)};
+      };
+      // How many of the features in those rows do not match d, counted on top of `other` until it
+      // exceeds `cap` (the verdicts only ask whether it does).
+      auto foreignBelow = [&](int x, double d, const FaceRows& face, long& other, long cap) {
+        for (int y = face.y0; y <= face.y1 && other <= cap; ++y) {
           if (labels.ptr<std::uint8_t>(y)[x] == kLabelNone) continue;
           other += !onFaceAt(y, x, d);
         }
@@ -2480,8 +2488,12 @@ int ObstacleExtractor::growAlongTopOutline(const cv::Mat& left, const cv::Mat& r
           int stop = scan_end, first_bad = -1;
           for (int t = 1; t < scan_end; t += 2) {  // every fourth column
             const int j = 2 * (t + 1);
-            long area = 0, other = 0;
-            belowOutline(xs + dir * j, d_side + k * j, h, area, other);
+            const int x = xs + dir * j;
+            const double d = d_side + k * j;
+            const FaceRows face = faceRows(x, d, h);
+            const long area = face.count();
+            long other = 0;
+            foreignBelow(x, d, face, other, area / 2);
             if (area > 0 && 2 * other <= area) {
               first_bad = -1;
             } else if (first_bad < 0) {
@@ -2504,13 +2516,15 @@ int ObstacleExtractor::growAlongTopOutline(const cv::Mat& left, const cv::Mat& r
           // The vertical outline lies between the last hit and the first textured column (+2).
           const int x_stop = xs + dir * 2 * (std::min(stop, n_tested - 1) + 1);
           const int xa = std::max(0, std::min(x_end, x_stop) - 2), xb = std::min(cols - 1, std::max(x_end, x_stop) + 2);
+          // Rows are counted until the share is reached, or until it no longer can be.
+          const double needed = params_.plain_near_end_edge_share * (y_bottom - y_top + 1);
           int edge_rows = 0;
-          for (int y = y_top; y <= y_bottom; ++y) {
+          for (int y = y_top; y <= y_bottom && edge_rows < needed && edge_rows + (y_bottom - y + 1) >= needed; ++y) {
             bool on = false;
             for (int x = xa; x <= xb && !on; ++x) on = onFaceAt(y, x, d_end);
             edge_rows += on ? 1 : 0;
           }
-          if (edge_rows < params_.plain_near_end_edge_share * (y_bottom - y_top + 1)) return;
+          if (edge_rows < needed) return;
           o.tested = last + 1;
           o.end = x_end;
           hits = hits_at_last;
@@ -2526,8 +2540,13 @@ int ObstacleExtractor::growAlongTopOutline(const cv::Mat& left, const cv::Mat& r
         if (d_end - d_side < 3.0 || std::abs(top_e - top_s) < std::max(6.0, 0.05 * j_end)) return;
         // Plain below the outline: few features there that do not match the face's offset.
         long area = 0, other = 0;
-        for (int j = 2; j <= j_end; j += 4) belowOutline(xs + dir * j, d_side + k * j, h, area, other);
-        if (area == 0 || other > params_.plain_max_feature_fraction * area) return;
+        for (int j = 2; j <= j_end; j += 4) area += faceRows(xs + dir * j, d_side + k * j, h).count();
+        if (area == 0) return;
+        // The most features off the face's offset that a plain face holds.
+        const long cap = static_cast<long>(std::floor(params_.plain_max_feature_fraction * static_cast<double>(area)));
+        for (int j = 2; j <= j_end && other <= cap; j += 4)
+          foreignBelow(xs + dir * j, d_side + k * j, faceRows(xs + dir * j, d_side + k * j, h), other, cap);
+        if (other > params_.plain_max_feature_fraction * area) return;
         best = o;
         best_ys = ys;
       };
