@@ -2492,9 +2492,10 @@ int ObstacleExtractor::growAlongTopOutline(const cv::Mat& left, const cv::Mat& r
             const double d = d_side + k * j;
             const FaceRows face = faceRows(x, d, h);
             const long area = face.count();
+            const long half_area = area / 2;  // plain while at most half of the rows are such features
             long other = 0;
-            foreignBelow(x, d, face, other, area / 2);
-            if (area > 0 && 2 * other <= area) {
+            foreignBelow(x, d, face, other, half_area);
+            if (area > 0 && other <= half_area) {
               first_bad = -1;
             } else if (first_bad < 0) {
               first_bad = t;
@@ -2546,7 +2547,7 @@ int ObstacleExtractor::growAlongTopOutline(const cv::Mat& left, const cv::Mat& r
         const long cap = static_cast<long>(std::floor(params_.plain_max_feature_fraction * static_cast<double>(area)));
         for (int j = 2; j <= j_end && other <= cap; j += 4)
           foreignBelow(xs + dir * j, d_side + k * j, faceRows(xs + dir * j, d_side + k * j, h), other, cap);
-        if (other > params_.plain_max_feature_fraction * area) return;
+        if (other > cap) return;
         best = o;
         best_ys = ys;
       };
