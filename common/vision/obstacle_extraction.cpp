@@ -2460,10 +2460,31 @@ int ObstacleExtractor::growAlongTopOutline(const cv::Mat& left, const cv::Mat& r
             o.end = x;
           }
           if (o.tested % 20 == 0 && 5 * hits < 2 * o.tested) break;  // below 40 %: hopeless
+          // A face out of view is judged on its whole walk: once every remaining column a hit
+          // would leave it below the share needed or below the best one, it cannot be taken.
+          if (!in_view && o.tested % 8 == 0) {
+            const int remaining = (n_cols - j) / 2;
+            const double bound = static_cast<double>(hits + remaining) / (o.tested + remaining);
+            if (bound < params_.plain_min_outline_fraction || bound < best.frac) return;
+          }
         }
         if (o.end < 0) return;
+        // The outline's share and shape (checked before the costlier tests of the face):
+        // enough of it matched and more than the best so far, an offset that changes and an
+        // outline that slants from `tested` columns ending at column `end`.
+        auto shapeHolds = [&](int tested, int hit_count, int end) {
+          const double frac = static_cast<double>(hit_count) / tested;
+          if (frac < params_.plain_min_outline_fraction || frac < best.frac ||
+              (frac == best.frac && tested <= best.tested))
+            return false;
+          const int j_end = std::abs(end - xs);
+          const double d_end = d_side + k * j_end;
+          const double top_s = ca - h * d_side / baseline_m;
+          const double top_e = contactOf(d_end, end) - h * d_end / baseline_m;
+          return d_end - d_side >= 3.0 && std::abs(top_e - top_s) >= std::max(6.0, 0.05 * j_end);
+        };
         if (!in_view) {
-          if (!out_of_view || o.tested < std::max(8.0, walk_widths / 2)) return;
+          if (!out_of_view || o.tested < std::max(8.0, walk_widths / 2) || !shapeHolds(o.tested, hits, o.end)) return;
         } else {
           // The last tested column before `limit` that is a hit with enough of the outline
           // matched up to it (-1 when none), and the hits up to it.
@@ -2484,6 +2505,8 @@ int ObstacleExtractor::growAlongTopOutline(const cv::Mat& left, const cv::Mat& r
           int hits_at_last = 0;
           const int reach = lastQualifying(n_tested, hits_at_last);
           if (reach + 1 < std::max(8.0, walk_widths / 2)) return;
+          // The end lies at or before `reach`: the offset must change by 3 up to there.
+          if (d_side + k * (2 * (reach + 1)) - d_side < 3.0) return;
           const int scan_end = std::min(n_tested, reach + 5);
           int stop = scan_end, first_bad = -1;
           for (int t = 1; t < scan_end; t += 2) {  // every fourth column
@@ -2513,7 +2536,7 @@ int ObstacleExtractor::growAlongTopOutline(const cv::Mat& left, const cv::Mat& r
           const double c_end = contactOf(d_end, x_end);
           const int y_top = std::max(0, static_cast<int>(std::lround(c_end - h * d_end / baseline_m)));
           const int y_bottom = std::min(rows - 1, static_cast<int>(std::lround(c_end)));
-          if (y_bottom < y_top) return;
+          if (y_bottom < y_top || !shapeHolds(last + 1, hits_at_last, x_end)) return;
           // The vertical outline lies between the last hit and the first textured column (+2).
           const int x_stop = xs + dir * 2 * (std::min(stop, n_tested - 1) + 1);
           const int xa = std::max(0, std::min(x_end, x_stop) - 2), xb = std::min(cols - 1, std::max(x_end, x_stop) + 2);
@@ -2531,14 +2554,7 @@ int ObstacleExtractor::growAlongTopOutline(const cv::Mat& left, const cv::Mat& r
           hits = hits_at_last;
         }
         o.frac = static_cast<double>(hits) / o.tested;
-        if (o.frac < params_.plain_min_outline_fraction || o.frac < best.frac ||
-            (o.frac == best.frac && o.tested <= best.tested))
-          return;
         const int j_end = std::abs(o.end - xs);
-        const double d_end = d_side + k * j_end;
-        const double top_s = ca - h * d_side / baseline_m;
-        const double top_e = contactOf(d_end, o.end) - h * d_end / baseline_m;
-        if (d_end - d_side < 3.0 || std::abs(top_e - top_s) < std::max(6.0, 0.05 * j_end)) return;
         // Plain below the outline: few features there that do not match the face's offset.
         long area = 0, other = 0;
         for (int j = 2; j <= j_end; j += 4) area += faceRows(xs + dir * j, d_side + k * j, h).count();
