@@ -1641,7 +1641,7 @@ int ObstacleExtractor::trimStreakSides(const cv::Mat& left, const cv::Mat& right
         if (y < o.box.y + top_rows) return true;
         const float line = ground.lineOffsetAt(y, static_cast<float>(x));
         if (standingCost(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, d, line, clearance,
-                         params_.stride_max_cost, params_.stride_cost_margin, kNone) != kNone &&
+                         params_.streak_max_cost, params_.stride_cost_margin, kNone) != kNone &&
             ++standing >= params_.streak_min_standing)
           return true;
       }

@@ -118,6 +118,8 @@ struct ObstacleParams {
   // row's, and pins where its texture changes along the row: the pinning trims leave it.
   bool trim_streak_sides = true;      // side columns with no pixel standing at the offset are trimmed ...
   int streak_min_standing = 4;        // ... standing pixels a column needs to stay
+  int streak_max_cost = 40;           // ... 5-pixel window SAD at the offset (+-1) up to which a pixel stands
+                                      // (with stride_cost_margin)
   double streak_top_share = 0.15;     // ... a pixel in this top share of the box's rows keeps the column
                                       // (a head and shoulders, a roof line)
   double streak_min_held_share = 0.5; // ... share of the trimmed columns that must hold the obstacle's pixels
@@ -161,7 +163,7 @@ struct ObstacleParams {
   double stride_max_growth = 0.25;   // most columns added per side, as a fraction of the box's height
   int stride_min_pixels = 2;         // standing pixels a column needs
   int stride_gap_px = 2;             // columns without crossed
-  int stride_max_cost = 40;          // 5-pixel window SAD at the offset (+-1) up to which a pixel stands at it ...
+  int stride_max_cost = 55;          // 5-pixel window SAD at the offset (+-1) up to which a pixel stands at it ...
   int stride_cost_margin = 60;       // ... when lower by this than at its row's line offset (+-1) ...
   int stride_unique_margin = 20;     // ... and by this than at any other offset near the two
   bool stride_unassigned = true;     // unassigned features stand too (a leg's slanted outline matching the
@@ -254,7 +256,9 @@ struct ObstacleParams {
     v.field("trim_streak_sides", trim_streak_sides, 0, 1, "",
             "trim an obstacle's side columns none of whose pixels stands at its offset (level streaks of the ground)");
     v.field("streak_min_standing", streak_min_standing, 1, 10000, "pixels",
-            "pixels standing at the offset (stride_max_cost, stride_cost_margin) a side column needs to stay");
+            "pixels standing at the offset (streak_max_cost, stride_cost_margin) a side column needs to stay");
+    v.field("streak_max_cost", streak_max_cost, 0, 5 * 255, "grey levels",
+            "largest window SAD at the offset of a pixel that keeps a side column");
     v.field("streak_top_share", streak_top_share, 0.0, 1.0, "",
             "a side column holding a pixel in this top share of the box's rows stays");
     v.field("streak_min_held_share", streak_min_held_share, 0.0, 1.0, "",
@@ -385,7 +389,7 @@ class ObstacleExtractor {
   // (ObstacleParams::trim_streak_sides): for an obstacle at one offset, from each side inwards
   // up to the first column that holds a pixel of it in the box's top streak_top_share of rows or
   // streak_min_standing pixels standing at its offset (their 5-pixel window matches the right
-  // image there, SAD <= stride_max_cost, lower by stride_cost_margin than at their row's line
+  // image there, SAD <= streak_max_cost, lower by stride_cost_margin than at their row's line
   // offset; rows at the foot, plain_side_contact_px, cannot tell). A streak matches at its own
   // row's offset as well as at any other; a person's or an object's outline matches at its own.
   // A side losing plain_side_reach_px columns or fewer keeps them (the outline's dilation, the
