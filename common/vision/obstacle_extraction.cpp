@@ -2460,8 +2460,9 @@ int ObstacleExtractor::growAlongTopOutline(const cv::Mat& left, const cv::Mat& r
             o.end = x;
           }
           if (o.tested % 20 == 0 && 5 * hits < 2 * o.tested) break;  // below 40 %: hopeless
-          // A face out of view is judged on its whole walk: once every remaining column a hit
-          // would leave it below the share needed or below the best one, it cannot be taken.
+          // A face out of view is judged on its whole walk: once its share would stay below the
+          // share needed, or below the best one's, even with a hit in every remaining column, it
+          // cannot be taken.
           if (!in_view && o.tested % 8 == 0) {
             const int remaining = (n_cols - j) / 2;
             const double bound = static_cast<double>(hits + remaining) / (o.tested + remaining);
