@@ -1617,6 +1617,50 @@ int ObstacleExtractor::extendStrides(const cv::Mat& left, const cv::Mat& right, 
   return added;
 }
 
+int ObstacleExtractor::settleOffsets(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels,
+                                     std::vector<ObstacleCluster>& obstacles) const {
+  const int span = params_.settle_offset_span_px;
+  if (span <= 0) return 0;
+  requireMono8Pair(left, right, labels);
+  const int tol = params_.grey_tolerance;
+  int changed = 0;
+  for (ObstacleCluster& o : obstacles) {
+    if (o.max_offset_px - o.min_offset_px > span) continue;
+    const cv::Rect box = o.box & cv::Rect(0, 0, left.cols, left.rows);
+    long best_count = -1;
+    int best = o.offset_px;
+    for (int k = 0; k <= 2 * span; ++k) {
+      const int d = o.offset_px + (k % 2 == 0 ? k / 2 : -(k + 1) / 2);  // own, own - 1, own + 1, ...
+      if (d < 0) continue;
+      long count = 0;
+      const std::uint8_t own = static_cast<std::uint8_t>(o.label);
+      for (int y = box.y; y < box.y + box.height; ++y) {
+        const std::uint8_t* l = left.ptr<std::uint8_t>(y);
+        const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+        const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+        int row = 0;  // branch-free on bytes, so that the loop vectorises
+        for (int x = std::max(box.x, d); x < box.x + box.width; ++x) {
+          const std::uint8_t a = l[x], b = r[x - d], c = lab[x];
+          const std::uint8_t lo = a < b ? a : b, hi = a < b ? b : a;
+          const bool counted = (c == own) | (c == kLabelGround) | (c == kLabelBackground);
+          row += counted & (lo != 0) & (hi - lo <= tol);
+        }
+        count += row;
+      }
+      if (count > best_count) {
+        best_count = count;
+        best = d;
+      }
+    }
+    if (best == o.offset_px) continue;
+    o.offset_px = best;
+    o.min_offset_px = std::min(o.min_offset_px, best);
+    o.max_offset_px = std::max(o.max_offset_px, best);
+    ++changed;
+  }
+  return changed;
+}
+
 int ObstacleExtractor::trimStreakSides(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
                                        cv::Mat& labels, std::vector<ObstacleCluster>& obstacles) const {
   if (!params_.trim_streak_sides) return 0;

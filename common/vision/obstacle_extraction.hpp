@@ -49,6 +49,12 @@ struct ObstacleParams {
   int max_obstacles = 12;           // obstacles per frame
   bool refine_offset = true;        // an obstacle's offset is the one its own pixels match best within
                                     // the offset tolerance of d* (d* is the peak of whole rows)
+  // The removal takes an obstacle's pixels that match at their row's ground offset (+-1): near a
+  // standing object's foot that is its own offset, so what is left matches best a pixel or two
+  // farther. Once the obstacles are final, one spanning few offsets takes the offset, within
+  // +-settle_offset_span_px, at which most of the feature pixels in its box labelled it, the
+  // ground or the background match (0: off).
+  int settle_offset_span_px = 2;
   int max_iterations = 24;          // candidates examined per frame (rejected ones included)
   int offset_tolerance_px = 1;      // offsets within +-this of d* match
   int grey_tolerance = 12;          // grey levels, as in the correlation
@@ -183,6 +189,9 @@ struct ObstacleParams {
     v.field("max_obstacles", max_obstacles, 0, 200, "", "obstacles per frame");
     v.field("refine_offset", refine_offset, 0, 1, "",
             "report the offset (within the tolerance of the histogram's peak) the cluster's own pixels match best");
+    v.field("settle_offset_span_px", settle_offset_span_px, 0, 16, "pixels",
+            "final offset of an obstacle spanning few offsets: the best match of its box's own, ground and "
+            "background features within this many pixels (0: off)");
     v.field("max_iterations", max_iterations, 0, 1000, "", "candidates examined per frame");
     v.field("offset_tolerance_px", offset_tolerance_px, 0, 16, "pixels", "offset tolerance around d*");
     v.field("grey_tolerance", grey_tolerance, 0, 254, "grey levels", "largest left/right grey difference that matches");
@@ -461,6 +470,15 @@ class ObstacleExtractor {
   // piece of the same person at its offset does not stop it). Returns the number of columns added.
   int extendStrides(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, const cv::Mat& labels,
                     std::vector<ObstacleCluster>& obstacles, double baseline_m) const;
+
+  // Settles the offset of each obstacle whose offset range spans at most settle_offset_span_px
+  // (ObstacleParams::settle_offset_span_px): of the offsets within that span of its own, the one
+  // at which most feature pixels inside its box labelled it, the ground or the background match the
+  // right image (each pixel on its own, grey_tolerance; ties: the one nearest its offset, then the
+  // smaller); its range takes the offset in. left: the feature image before the removal. Returns
+  // the number of obstacles whose offset changed.
+  int settleOffsets(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels,
+                    std::vector<ObstacleCluster>& obstacles) const;
 
   const ObstacleParams& params() const { return params_; }
 

@@ -158,10 +158,11 @@ TEST(SyntheticStatistics, SideViewWithoutASymmetricCandidateStillGetsABox) {
 }
 
 // The symmetry search starts at the narrowest person box (candidates.min_width_m). From the
-// side a person is 0.18-0.25 m deep; searched only from 0.25 m, the people 9.5 m away in scene
-// seed 97 and 28.9 m away in seed 1013 get boxes around wider, off-centre symmetric stretches
-// (IoU 0.38 and 0.44 with their labels); from 0.18 m the narrower symmetric core wins and the
-// box frames them (IoU 0.66 and 0.51).
+// side a person is 0.18-0.25 m deep; searched only from 0.25 m, the person 9.5 m away in scene
+// seed 97 gets a box around a wider, off-centre symmetric stretch (IoU 0.38 with the label) and
+// the one 26.5 m away in seed 1063 none on him; from 0.18 m the narrower symmetric core wins and
+// the box frames them (IoU 0.66 and 0.68). (Seed 1013's person at 28.9 m showed it too, 0.44
+// against 0.51, while his obstacle's offset was 15 instead of the 13 its pixels settle at.)
 TEST(SyntheticStatistics, NarrowestPersonBoxLetsTheSymmetricCoreWin) {
   auto narrowest = [](double m) {
     return [m](DetectorParams& p) {
@@ -170,7 +171,7 @@ TEST(SyntheticStatistics, NarrowestPersonBoxLetsTheSymmetricCoreWin) {
     };
   };
   ASSERT_LE(DetectorParams{}.localizer.candidates.min_width_m, 0.18);
-  for (const auto& [seed, z] : {std::pair<std::uint64_t, double>{97, 9.5}, {1013, 28.9}}) {
+  for (const auto& [seed, z] : {std::pair<std::uint64_t, double>{97, 9.5}, {1063, 26.5}}) {
     EXPECT_GE(bestIouWithPerson(seed, z, narrowest(0.18)), 0.5) << "seed " << seed;
     EXPECT_LT(bestIouWithPerson(seed, z, narrowest(0.25)), 0.5) << "seed " << seed;
   }
