@@ -18,6 +18,24 @@ namespace sg {
 
 namespace {
 
+// Of the offsets within +-span of `centre` (and inside [0, cols)), the one with the largest
+// count(d); ties go to the one nearest `centre`, then to the smaller.
+template <class Count>
+int offsetWithMostMatches(int centre, int span, int cols, Count count) {
+  int best = centre;
+  long best_count = -1;
+  for (int k = 0; k <= 2 * span; ++k) {
+    const int d = centre + (k % 2 == 0 ? k / 2 : -(k + 1) / 2);  // centre, centre - 1, centre + 1, ...
+    if (d < 0 || d >= cols) continue;
+    const long n = count(d);
+    if (n > best_count) {
+      best = d;
+      best_count = n;
+    }
+  }
+  return best;
+}
+
 // Left pixel x matches the right row at some offset in [d0, d1]: every feature pixel of the
 // window [x - half, x + half] (inside the row, at least the centre) has a right feature within tol.
 // (Always inlined: a call per pixel costs more than the test in the face-growing loops.)
@@ -226,12 +244,7 @@ int ObstacleExtractor::ownOffset(const cv::Mat& remaining, const cv::Mat& right,
   // matches at d* within the offset tolerance, and its own pixels may match best at a
   // neighbour of d*. Of the offsets within the tolerance, the one with the most matching
   // feature pixels inside the box (ties: the one nearest d*, then the smaller).
-  const int tol = params_.offset_tolerance_px;
-  int own = best;
-  long own_count = -1;
-  for (int k = 0; k <= 2 * tol; ++k) {
-    const int d = best + (k % 2 == 0 ? k / 2 : -(k + 1) / 2);  // best, best - 1, best + 1, ...
-    if (d < 0 || d >= cols_) continue;
+  return offsetWithMostMatches(best, params_.offset_tolerance_px, cols_, [&](int d) {
     // Each pixel on its own (the correlation's count, vectorised): chance matches spread
     // evenly over neighbouring offsets, the cluster's own offset stands out.
     long count = 0;
@@ -239,12 +252,8 @@ int ObstacleExtractor::ownOffset(const cv::Mat& remaining, const cv::Mat& right,
     for (int y = box.y; y < box.y + box.height && x0 < box.x + box.width; ++y)
       count += countRowMatches(remaining.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x0, box.x + box.width, d,
                                params_.grey_tolerance);
-    if (count > own_count) {
-      own = d;
-      own_count = count;
-    }
-  }
-  return own;
+    return count;
+  });
 }
 
 void ObstacleExtractor::resetMasks(RowMasks& masks, int d0, int d1) {
@@ -1627,13 +1636,9 @@ int ObstacleExtractor::settleOffsets(const cv::Mat& left, const cv::Mat& right, 
   for (ObstacleCluster& o : obstacles) {
     if (o.max_offset_px - o.min_offset_px > span) continue;
     const cv::Rect box = o.box & cv::Rect(0, 0, left.cols, left.rows);
-    long best_count = -1;
-    int best = o.offset_px;
-    for (int k = 0; k <= 2 * span; ++k) {
-      const int d = o.offset_px + (k % 2 == 0 ? k / 2 : -(k + 1) / 2);  // own, own - 1, own + 1, ...
-      if (d < 0) continue;
+    const std::uint8_t own = static_cast<std::uint8_t>(o.label);
+    const int best = offsetWithMostMatches(o.offset_px, span, left.cols, [&](int d) {
       long count = 0;
-      const std::uint8_t own = static_cast<std::uint8_t>(o.label);
       for (int y = box.y; y < box.y + box.height; ++y) {
         const std::uint8_t* l = left.ptr<std::uint8_t>(y);
         const std::uint8_t* r = right.ptr<std::uint8_t>(y);
@@ -1647,11 +1652,8 @@ int ObstacleExtractor::settleOffsets(const cv::Mat& left, const cv::Mat& right, 
         }
         count += row;
       }
-      if (count > best_count) {
-        best_count = count;
-        best = d;
-      }
-    }
+      return count;
+    });
     if (best == o.offset_px) continue;
     o.offset_px = best;
     o.min_offset_px = std::min(o.min_offset_px, best);
