@@ -1571,15 +1571,20 @@ bool ObstacleExtractor::standsAt(const cv::Mat& left, const cv::Mat& right, cons
   return true;
 }
 
+std::array<int, 256> ObstacleExtractor::offsetsOfLabels(const std::vector<ObstacleCluster>& obstacles) {
+  std::array<int, 256> offset_of_label{};
+  offset_of_label.fill(-1);
+  for (const ObstacleCluster& o : obstacles)
+    if (o.label >= 0 && o.label < 256) offset_of_label[static_cast<std::size_t>(o.label)] = o.offset_px;
+  return offset_of_label;
+}
+
 int ObstacleExtractor::extendStrides(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
                                      const cv::Mat& labels, std::vector<ObstacleCluster>& obstacles,
                                      double baseline_m) const {
   if (!params_.extend_strides || !(baseline_m > 0.0)) return 0;
   const int cols = left.cols;
-  std::array<int, 256> offset_of_label{};
-  offset_of_label.fill(-1);
-  for (const ObstacleCluster& o : obstacles)
-    if (o.label >= 0 && o.label < 256) offset_of_label[static_cast<std::size_t>(o.label)] = o.offset_px;
+  const std::array<int, 256> offset_of_label = offsetsOfLabels(obstacles);
   int added = 0;
   for (ObstacleCluster& o : obstacles) {
     const int d = o.offset_px;
@@ -1622,6 +1627,80 @@ int ObstacleExtractor::extendStrides(const cv::Mat& left, const cv::Mat& right, 
     added += o.box.x - x0 + x1 - (o.box.x + o.box.width - 1);
     o.box.width = x1 - x0 + 1;
     o.box.x = x0;
+  }
+  return added;
+}
+
+int ObstacleExtractor::growThinTops(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels,
+                                    std::vector<ObstacleCluster>& obstacles, double baseline_m) const {
+  if (!params_.grow_thin_tops || !(baseline_m > 0.0)) return 0;
+  requireMono8Pair(left, right, labels);
+  const std::array<int, 256> offset_of_label = offsetsOfLabels(obstacles);
+  const int cols = left.cols;
+  const int tol = params_.offset_tolerance_px;
+  int added = 0;
+  for (ObstacleCluster& o : obstacles) {
+    const int d = o.offset_px;
+    if (d <= 0 || !atOneOffset(o) || o.box.width * baseline_m / d > params_.thin_top_max_width_m) continue;
+    const int x0 = std::max(0, o.box.x), x1 = std::min(cols, o.box.x + o.box.width);  // [x0, x1)
+    // The columns beside: as many as the box is wide each side, past the reach of its outline's dilation.
+    const int reach = params_.plain_side_reach_px;
+    const int beside0 = std::max(0, x0 - reach - (x1 - x0)), beside1 = std::min(cols, x1 + reach + (x1 - x0));
+    // Row y's features and matches at d, in the box's columns and beside; false when the row
+    // holds pixels of another obstacle at another offset.
+    struct Counts {
+      int features = 0, matched = 0, features_beside = 0, matched_beside = 0;
+    };
+    auto count = [&](int y, Counts& c) {
+      const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+      const std::uint8_t* l = left.ptr<std::uint8_t>(y);
+      const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+      for (int x = beside0; x < beside1; ++x) {
+        const std::uint8_t label = lab[x];
+        const bool inside = x >= x0 && x < x1;
+        if (label == kLabelNone || (!inside && x >= x0 - reach && x < x1 + reach)) continue;
+        const int e = offset_of_label[label];
+        if (inside && label != o.label && e >= 0 && std::abs(e - d) > tol) return false;
+        const int m = matchAt(l, r, x, std::max(0, d - tol), d + tol, params_.grey_tolerance,
+                              params_.match_half_window_px, cols);
+        (inside ? c.features : c.features_beside) += 1;
+        (inside ? c.matched : c.matched_beside) += m;
+      }
+      return true;
+    };
+    // A row holds when at least two of its features in the box's columns, and a
+    // min_match_fraction share of them, match at d: a larger share than beside (where a level
+    // streak of the background would match alike).
+    auto holds = [&](const Counts& c) {
+      return c.matched >= 2 && c.matched >= params_.min_match_fraction * c.features &&
+             static_cast<long>(c.matched_beside) * c.features < static_cast<long>(c.matched) * c.features_beside;
+    };
+    int top = o.box.y, held = 0, held_at_top = 0;
+    Counts grown, at_top;  // sums over the rows walked, and over those up to the top
+    for (int y = o.box.y - 1, gap = 0; y >= 0; --y) {
+      Counts row;
+      if (!count(y, row)) break;
+      grown.features += row.features;
+      grown.matched += row.matched;
+      grown.features_beside += row.features_beside;
+      grown.matched_beside += row.matched_beside;
+      if (holds(row)) {
+        top = y;
+        held_at_top = ++held;
+        at_top = grown;
+        gap = 0;
+      } else if (++gap > params_.thin_top_gap_rows) {
+        break;
+      }
+    }
+    // Most rows added hold, and together they match at d thin_top_min_contrast times as often as beside.
+    if (top == o.box.y || held_at_top < params_.thin_top_min_share * (o.box.y - top)) continue;
+    if (static_cast<double>(at_top.matched) * at_top.features_beside <
+        params_.thin_top_min_contrast * at_top.matched_beside * at_top.features)
+      continue;
+    added += o.box.y - top;
+    o.box.height += o.box.y - top;
+    o.box.y = top;
   }
   return added;
 }

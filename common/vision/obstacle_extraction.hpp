@@ -175,6 +175,13 @@ struct ObstacleParams {
   bool stride_unassigned = true;     // unassigned features stand too (a leg's slanted outline matching the
                                      // right image's only within the window, not at the obstacle cells)
   bool stride_stop_at_others = true; // a column holding another obstacle's pixels at another offset ends the widening
+  // A pole's pixels in front of textured hills often match the background's offset too, so the
+  // removal takes them and the cluster keeps only the pole's lower part (or a part above).
+  bool grow_thin_tops = true;          // grow a narrow obstacle's top up its columns while they match at its offset
+  double thin_top_max_width_m = 0.4;   // widest obstacle grown (a post; a person seen from the front is wider)
+  int thin_top_gap_rows = 6;           // rows whose pixels do not match crossed
+  double thin_top_min_share = 0.5;     // share of the rows added whose pixels match at the offset
+  double thin_top_min_contrast = 3.0;  // how many times as often the rows added match at it as the columns beside
   // Person-sized clusters below min_peak_matches / min_cluster_features: a person 25-35 m away
   // shows ~30-45 rows of a narrow outline. Such weaker clusters are kept when their size in
   // metres (from d* and the rig's baseline) is a person's. 0 turns this off.
@@ -325,6 +332,14 @@ struct ObstacleParams {
     v.field("stride_unassigned", stride_unassigned, 0, 1, "", "unassigned features may stand at the offset too");
     v.field("stride_stop_at_others", stride_stop_at_others, 0, 1, "",
             "stop widening at a column holding pixels of an obstacle outside the offset tolerance");
+    v.field("grow_thin_tops", grow_thin_tops, 0, 1, "",
+            "grow a narrow obstacle's top up its columns while their pixels match at its offset");
+    v.field("thin_top_max_width_m", thin_top_max_width_m, 0.0, 10.0, "metres", "widest obstacle whose top grows");
+    v.field("thin_top_gap_rows", thin_top_gap_rows, 0, 1000, "rows", "rows whose pixels do not match crossed");
+    v.field("thin_top_min_share", thin_top_min_share, 0.0, 1.0, "",
+            "share of the rows added whose pixels must match at the offset");
+    v.field("thin_top_min_contrast", thin_top_min_contrast, 0.0, 100.0, "",
+            "how many times as often the rows added must match at the offset as the columns beside them");
     v.field("join_across_nearer", join_across_nearer, 0, 1, "",
             "join two parts at one offset whose gap a nearer obstacle mostly hides");
     v.field("plain_height_tolerance", plain_height_tolerance, 0.0, 10.0, "",
@@ -471,6 +486,17 @@ class ObstacleExtractor {
   int extendStrides(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, const cv::Mat& labels,
                     std::vector<ObstacleCluster>& obstacles, double baseline_m) const;
 
+  // Grows the top of each obstacle at one offset no wider than thin_top_max_width_m (a post)
+  // up its columns, row by row. A row holds when at least two of its features in the box's
+  // columns and a min_match_fraction share of them match the right image at the obstacle's
+  // offset (+-offset_tolerance_px), a larger share than in the columns beside (as many as the box
+  // is wide each side, past plain_side_reach_px: a level streak matches everywhere alike). Up to
+  // thin_top_gap_rows rows that do not hold are crossed; a row holding pixels of another obstacle
+  // at another offset ends the growth. The top moves to the highest row that holds when at least
+  // thin_top_min_share of the rows added hold. Returns the number of rows added.
+  int growThinTops(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels,
+                   std::vector<ObstacleCluster>& obstacles, double baseline_m) const;
+
   // Settles the offset of each obstacle whose offset range spans at most settle_offset_span_px
   // (ObstacleParams::settle_offset_span_px): of the offsets within that span of its own, the one
   // at which most feature pixels inside its box labelled it, the ground or the background match the
@@ -481,6 +507,9 @@ class ObstacleExtractor {
                     std::vector<ObstacleCluster>& obstacles) const;
 
   const ObstacleParams& params() const { return params_; }
+
+  // Each label's obstacle offset (-1: no obstacle has the label).
+  static std::array<int, 256> offsetsOfLabels(const std::vector<ObstacleCluster>& obstacles);
 
   // An obstacle at one offset: its range within the offset tolerance either side (a face
   // receding in depth spans more).

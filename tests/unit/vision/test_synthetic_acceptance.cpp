@@ -828,6 +828,23 @@ TEST(SyntheticObstacles, OffsetsSettleWhereTheRemovedPixelsMatchToo) {
   expectFoundOnlyWithTheStep(unsettled, "Pedestrian", {{157, 622}, {432, 684}, {495, 1202}});
 }
 
+// A post in front of textured hills: many of its pixels match the background's offset as well,
+// so the removal takes them and its cluster keeps only the lower part (seeds 44 and 353, posts
+// 25-26 m away, boxes from 31 and 36 rows below their tops). A far person's cluster may lack its
+// head the same way (seed 264). Their tops grow up the columns where most pixels match at the
+// offset, three times as often as beside. Above seed 1012's far person (28.9 m) streaks of the
+// hills match at his offset more often inside his columns than beside them, but not three times
+// as often: with any excess counting, his box would grow 32 rows above his head.
+TEST(SyntheticObstacles, PostTopsGrowWhereTheirColumnsMatch) {
+  SegmenterParams ungrown;
+  ungrown.obstacles.grow_thin_tops = false;
+  expectFoundOnlyWithTheStep(ungrown, "Misc", {{44, 1037}, {353, 1115}});
+  expectFound("Pedestrian", 264, 579, &ungrown);
+  SegmenterParams any_excess;
+  any_excess.obstacles.thin_top_min_contrast = 1.0;
+  expectFound("Pedestrian", 1012, 122, &any_excess);
+}
+
 // Two people at one offset joined by the ground's residue along their common foot row (seed 336),
 // a person joined the same way to the feet of a nearer one (seed 580): the obstacle keeps the
 // person-sized part. Seed 4's car, a plain side between its two outlines whose upper outline
