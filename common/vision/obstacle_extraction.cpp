@@ -2633,6 +2633,17 @@ int ObstacleExtractor::growAlongTopOutline(const cv::Mat& left, const cv::Mat& r
           if (reach + 1 < std::max(8.0, walk_widths / 2)) return;
           // The end lies at or before `reach`: the offset must change by 3 up to there.
           if (d_side + k * (2 * (reach + 1)) - d_side < 3.0) return;
+          // The end taken below is one of the qualifying hits up to `reach`: when none of them
+          // gives the share and the shape, no face below can.
+          bool possible = false;
+          for (int t = 0, run = 0; t <= reach && !possible; ++t) {
+            const std::uint8_t hit = outline_hits_[static_cast<std::size_t>(t)];
+            run += hit;
+            if (!hit || run < params_.plain_min_outline_fraction * (t + 1) || t + 1 < std::max(8.0, walk_widths / 2))
+              continue;
+            possible = shapeHolds(t + 1, run, xs + dir * 2 * (t + 1));
+          }
+          if (!possible) return;
           const int scan_end = std::min(n_tested, reach + 5);
           int stop = scan_end, first_bad = -1;
           for (int t = 1; t < scan_end; t += 2) {  // every fourth column
