@@ -1650,6 +1650,13 @@ int ObstacleExtractor::growThinTops(const cv::Mat& left, const cv::Mat& right, c
     // holds pixels of another obstacle at another offset.
     struct Counts {
       int features = 0, matched = 0, features_beside = 0, matched_beside = 0;
+      Counts& operator+=(const Counts& o) {
+        features += o.features;
+        matched += o.matched;
+        features_beside += o.features_beside;
+        matched_beside += o.matched_beside;
+        return *this;
+      }
     };
     auto count = [&](int y, Counts& c) {
       const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
@@ -1659,8 +1666,10 @@ int ObstacleExtractor::growThinTops(const cv::Mat& left, const cv::Mat& right, c
         const std::uint8_t label = lab[x];
         const bool inside = x >= x0 && x < x1;
         if (label == kLabelNone || (!inside && x >= x0 - reach && x < x1 + reach)) continue;
-        const int e = offset_of_label[label];
-        if (inside && label != o.label && e >= 0 && std::abs(e - d) > tol) return false;
+        if (inside && label != o.label) {
+          const int e = offset_of_label[label];
+          if (e >= 0 && std::abs(e - d) > tol) return false;
+        }
         const int m = matchAt(l, r, x, std::max(0, d - tol), d + tol, params_.grey_tolerance,
                               params_.match_half_window_px, cols);
         (inside ? c.features : c.features_beside) += 1;
@@ -1680,10 +1689,7 @@ int ObstacleExtractor::growThinTops(const cv::Mat& left, const cv::Mat& right, c
     for (int y = o.box.y - 1, gap = 0; y >= 0; --y) {
       Counts row;
       if (!count(y, row)) break;
-      grown.features += row.features;
-      grown.matched += row.matched;
-      grown.features_beside += row.features_beside;
-      grown.matched_beside += row.matched_beside;
+      grown += row;
       if (holds(row)) {
         top = y;
         held_at_top = ++held;

@@ -493,7 +493,9 @@ class ObstacleExtractor {
   // is wide each side, past plain_side_reach_px: a level streak matches everywhere alike). Up to
   // thin_top_gap_rows rows that do not hold are crossed; a row holding pixels of another obstacle
   // at another offset ends the growth. The top moves to the highest row that holds when at least
-  // thin_top_min_share of the rows added hold. Returns the number of rows added.
+  // thin_top_min_share of the rows added hold and, over all of them, the box's columns match at
+  // the offset thin_top_min_contrast times as often as the columns beside. Returns the number of
+  // rows added.
   int growThinTops(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels,
                    std::vector<ObstacleCluster>& obstacles, double baseline_m) const;
 
