@@ -1876,6 +1876,55 @@ bool ObstacleExtractor::outlineAt(const cv::Mat& left, const cv::Mat& right, int
   return false;
 }
 
+ObstacleExtractor::FaceTop ObstacleExtractor::faceTop(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels,
+                                const ObstacleCluster& o, int first, int end, int dir, int d0, int d1,
+                                double baseline_m) const {
+  const int gap = std::abs(end - first);
+  auto outlined = [&](int top) {
+    int n = 0;
+    for (int k = first; k != end; k += dir) n += outlineAt(left, right, top, k, d0, d1) ? 1 : 0;
+    return n;
+  };
+  const FaceTop at_top{o.box.y, outlined(o.box.y)};
+  if (!params_.plain_raise_top || gap == 0 || at_top.outlined >= params_.plain_min_outline_fraction * gap)
+    return at_top;
+  // A gap narrower than a person may be a person's own plain clothes, or the space between a
+  // person and what stands behind: a raised outline there could join them.
+  if (o.offset_px <= 0 || gap * baseline_m / o.offset_px < params_.plain_raise_min_gap_m) return at_top;
+  // Up from the top while the gap's row stays plain (at most a quarter of its columns features),
+  // no higher than half the obstacle's height.
+  const int highest = std::max(0, o.box.y - o.box.height / 2);
+  int y = o.box.y - 1;
+  for (; y >= highest; --y) {
+    const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+    int features = 0;
+    for (int k = first; k != end; k += dir) features += lab[k] != kLabelNone;
+    if (4 * features > gap) break;
+  }
+  if (y < highest) return at_top;
+  const FaceTop raised{y, outlined(y)};
+  if (raised.outlined < params_.plain_min_outline_fraction * gap) return at_top;
+  // The side reaches up there too: on at least a quarter of the rows between (any, when they are
+  // within the outline's own +-2 rows), one of its plain_side_reach_px columns next to the gap
+  // holds a feature matching at the offsets. A person standing before a plain wall does not.
+  const int between = o.box.y - y - 1;
+  if (between <= 2) return raised;
+  int rows = 0;
+  for (int r = y + 1; r < o.box.y; ++r) {
+    const std::uint8_t* l = left.ptr<std::uint8_t>(r);
+    const std::uint8_t* rr = right.ptr<std::uint8_t>(r);
+    for (int k = 1; k <= params_.plain_side_reach_px; ++k) {
+      const int c = first - dir * k;
+      if (c >= 0 && c < left.cols && l[c] != 0 &&
+          matchAt(l, rr, c, d0, d1, params_.grey_tolerance, params_.match_half_window_px, left.cols)) {
+        ++rows;
+        break;
+      }
+    }
+  }
+  return 4 * rows >= between ? raised : at_top;
+}
+
 bool ObstacleExtractor::atFoot(const GroundProfile& ground, const ObstacleCluster& o, int y, int x) const {
   const float contact = static_cast<float>(params_.plain_side_contact_px);
   if (contact < 0.0f || y < ground.horizon_row || y >= static_cast<int>(ground.offset_per_row.size())) return false;
@@ -2199,7 +2248,10 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       const int gap = std::abs(x - first);
       if (gap == 0) continue;
       if (pinning > params_.plain_max_feature_fraction * inner * gap) continue;
-      auto topHit = [&](int k) { return outlineAt(left, right, a.box.y, k, d_lo, d_hi); };
+      // The face's top outline: the obstacle's top row, or, when the gap's columns hold no matching
+      // outline there, the first row above it at which the gap stops being plain (a side whose upper
+      // part the removal took against the background: the face is plain up to its top).
+      auto topOf = [&]() { return faceTop(left, right, labels, a, first, x, dir, d_lo, d_hi, baseline_m); };
       // Features (count, columns) in the `beyond` columns past the obstacle's near side, and past
       // column `far` on the other side when there is one (far >= 0).
       const int near_end = dir > 0 ? a.box.x - 1 : a.box.x + a.box.width;
@@ -2221,16 +2273,17 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         // offset changes along it): only a gap plain of every feature is taken at one offset.
         if (!measured_ground || !params_.plain_one_sided || features > params_.plain_max_feature_fraction * inner * gap)
           return false;
+        const int top = topOf().row;
         int hits = 0, end = -1;
         for (int k = first; k != x; k += dir) {
-          if (!topHit(k)) continue;
+          if (!outlineAt(left, right, top, k, d_lo, d_hi)) continue;
           ++hits;
           if (hits >= params_.plain_min_outline_fraction * (std::abs(k - first) + 1)) end = k;
         }
         if (end < 0 || std::abs(end - first) + 1 < std::max(8, a.box.width)) return false;
         const auto [outside, outside_columns] = featuresBeside(std::min(std::abs(end - first) + 1, 2 * a.box.width), -1);
         if (outside_columns == 0 || outside < kPlainSurroundFraction * outside_columns * inner) return false;
-        const cv::Rect reach = a.box | cv::Rect(std::min(first, end), a.box.y, std::abs(end - first) + 1, 1);
+        const cv::Rect reach = a.box | cv::Rect(std::min(first, end), top, std::abs(end - first) + 1, 1);
         foldInto(i, reach, a.min_offset_px - tol - 1, a.max_offset_px + tol + 1, labels, obstacles);
         return true;
       };
@@ -2254,15 +2307,14 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       }
       // The top outline continues the obstacle's top: most gap columns hold, within 2 rows of
       // it, a feature matching at the offsets.
-      int outlined = 0;
-      for (int k = first; k != x; k += dir) outlined += topHit(k) ? 1 : 0;
+      const FaceTop top = topOf();
       // The gap is plain where the same rows beyond both sides are not: something hides what
       // is behind it (on ground without texture a plain gap may be the ground itself).
       const auto [outside, outside_columns] = featuresBeside(std::min(gap, 2 * a.box.width), far);
-      if (outlined < params_.plain_min_outline_fraction * gap) continue;
+      if (top.outlined < params_.plain_min_outline_fraction * gap) continue;
       if (outside < kPlainSurroundFraction * outside_columns * inner) continue;
       // Joined: the box spans the far side, and obstacles there at the same offsets fold into it.
-      cv::Rect reach = a.box | cv::Rect(std::min(x, far), a.box.y, std::abs(far - x) + 1, 1);
+      cv::Rect reach = a.box | cv::Rect(std::min(x, far), top.row, std::abs(far - x) + 1, 1);
       foldInto(i, reach, a.min_offset_px - tol - 1, a.max_offset_px + tol + 1, labels, obstacles);
       ++joins;
     }

@@ -146,6 +146,9 @@ struct ObstacleParams {
   double plain_max_width_m = 15.0;           // widest gap joined (a long vehicle's side)
   double plain_height_tolerance = 0.25;      // a receding face's two sides: heights in metres within this
   bool plain_one_sided = true;               // a face with one side found reaches as far as its top outline
+  bool plain_raise_top = true;               // a face's top outline may lie above its side's top, where the
+                                             // gap stops being plain ...
+  double plain_raise_min_gap_m = 0.5;        // ... over a gap at least this wide (metres; narrower: a person)
   bool plain_outline_faces = true;           // a plain face receding out of view grows from a part found at
                                              // its far end along its top outline (offset linear along it)
   double plain_outline_min_walk_widths = 0.0;  // columns out to the border, in the part's widths, it needs
@@ -299,6 +302,10 @@ struct ObstacleParams {
             "any feature) up to which it is plain");
     v.field("plain_min_outline_fraction", plain_min_outline_fraction, 0.0, 1.0, "",
             "share of the gap's columns whose top outline matches at the sides' offset");
+    v.field("plain_raise_top", plain_raise_top, 0, 1, "",
+            "look for a face's top outline up the gap, to where it stops being plain, when the side's top has none");
+    v.field("plain_raise_min_gap_m", plain_raise_min_gap_m, 0.0, 1000.0, "metres",
+            "narrowest gap over which a face's top outline is looked for above its side's top");
     v.field("plain_max_width_m", plain_max_width_m, 0.0, 1000.0, "metres", "widest plain gap joined");
     v.field("plain_outline_faces", plain_outline_faces, 0, 1, "",
             "grow a part along the top outline of a plain face receding out of view");
@@ -653,6 +660,17 @@ class ObstacleExtractor {
   // Does column x of the left feature image match the right at an offset in [d0, d1] on a row
   // within 2 of `top`: a face's upper outline there (joinPlainFaces, splitGroundLinks)?
   bool outlineAt(const cv::Mat& left, const cv::Mat& right, int top, int x, int d0, int d1) const;
+  // The row of a plain face's top outline over the gap from column `first` to `end` (exclusive,
+  // step `dir`) beside obstacle o: o's top when at least plain_min_outline_fraction of the gap's
+  // columns hold an outline there; else, with plain_raise_top, the first row above it at which the
+  // gap stops being plain, when that row is outlined so and o's columns next to the gap hold
+  // matching features on a quarter of the rows up to it; else o's top.
+  struct FaceTop {
+    int row;       // the outline's row
+    int outlined;  // gap columns holding a matching outline within 2 rows of it
+  };
+  FaceTop faceTop(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels, const ObstacleCluster& o,
+                  int first, int end, int dir, int d0, int d1, double baseline_m) const;
   // Does the ground, background or (stride_unassigned) unassigned feature at (y, x) stand at
   // offset d (extendStrides' test)?
   bool standsAt(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, const cv::Mat& labels, int y,
