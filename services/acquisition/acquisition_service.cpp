@@ -173,6 +173,10 @@ void AcquisitionService::run() {
     if (flow_control_) waitForRoom();
     try {
       publish(pair, last);
+      // The first frame reaches every matched reader before the next replaces it in the writer's
+      // one-frame history: a reader whose side of the discovery lags gets it retransmitted.
+      if (params_.min_readers > 0 && !first_published_) writer_.waitForAcks(match_timeout);
+      first_published_ = true;
       if (flow_control_) in_flight_.emplace_back(next_frame_id_, Clock::now());
     } catch (const InputError& e) {
       runtime_.stats().dropped(dds::kDropMalformed);

@@ -80,6 +80,7 @@ class AcquisitionService {
   // Flow control at rate_hz 0 (max_in_flight).
   dds::TopicReader<sg_idl_HumanDetections> answers_reader_;
   std::deque<std::pair<std::uint64_t, std::chrono::steady_clock::time_point>> in_flight_;  // id, publication
+  bool first_published_ = false;  // the first frame was published (and, with min_readers, acknowledged)
   std::uint64_t given_up_ = 0;  // frames whose answer never came (dropped downstream, counted there)
   bool flow_control_ = false;
 };

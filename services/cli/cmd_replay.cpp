@@ -102,6 +102,10 @@ void runReplay(const ReplayOptions& o) {
     sg_idl_StereoFrame sample{};
     dds::fillStereoFrame(data, sample);
     writer.write(sample);
+    // The first frame reaches every matched reader before the next replaces it in the writer's
+    // one-frame history: a reader whose side of the discovery lags gets it retransmitted.
+    if (published == 0 && o.min_readers > 0)
+      writer.waitForAcks(std::chrono::milliseconds(static_cast<long>(o.match_timeout_s * 1000.0)));
     ++published;
   }
   if (published < frames.size()) {  // stopped by a signal: tell the stages downstream
