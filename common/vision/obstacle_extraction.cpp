@@ -2413,7 +2413,11 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         if (decided()) return false;
       }
     if (matched < frac * features) return false;
+    // A textured gap is the face's only when its features match the line rather than what lies
+    // behind: ground streaks between a person and a farther object match the line's offsets by
+    // chance, and would pass for a plain gap's outline below.
     if (gap_textured && gap_matched >= frac * gap_features) return true;
+    if (gap_textured && params_.textured_gap_not_plain) return false;
     // A plain gap: nothing in it that does not match the line, ...
     if (blocked) return false;
     // ... its top outline matching, and the rows both parts share textured beyond them: the

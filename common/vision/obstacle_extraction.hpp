@@ -149,6 +149,7 @@ struct ObstacleParams {
   bool plain_raise_top = true;               // a face's top outline may lie above its side's top, where the
                                              // gap stops being plain ...
   double plain_raise_min_gap_m = 0.5;        // ... over a gap at least this wide (metres; narrower: a person)
+  bool textured_gap_not_plain = true;        // receding parts: a textured gap is never judged as a plain one
   bool plain_outline_faces = true;           // a plain face receding out of view grows from a part found at
                                              // its far end along its top outline (offset linear along it)
   double plain_outline_min_walk_widths = 0.0;  // columns out to the border, in the part's widths, it needs
@@ -306,6 +307,9 @@ struct ObstacleParams {
             "look for a face's top outline up the gap, to where it stops being plain, when the side's top has none");
     v.field("plain_raise_min_gap_m", plain_raise_min_gap_m, 0.0, 1000.0, "metres",
             "narrowest gap over which a face's top outline is looked for above its side's top");
+    v.field("textured_gap_not_plain", textured_gap_not_plain, 0, 1, "",
+            "two parts of a receding face: a textured gap between them is judged by its matches only, not as a "
+            "plain gap");
     v.field("plain_max_width_m", plain_max_width_m, 0.0, 1000.0, "metres", "widest plain gap joined");
     v.field("plain_outline_faces", plain_outline_faces, 0, 1, "",
             "grow a part along the top outline of a plain face receding out of view");
