@@ -186,6 +186,9 @@ int main(int argc, char** argv) {
       bool hit = false;  // as the acceptance test
       const test::DisparitySpread d_surface = test::visibleDisparities(t.disparity, t.object_id, k);
       for (const ObstacleCluster& c : r.obstacles) hit = hit || test::clusterFindsObject(c, box, d_true, d_surface);
+      // SPREAD=1: the visible surface's disparities (10th to 90th percentile) the offset is judged by.
+      if (std::getenv("SPREAD") && want)
+        std::printf("   spread of visible disparities %.1f - %.1f\n", d_surface.low, d_surface.high);
       if (want) { ++wanted; found += hit; }
       if (!hit && t.object_visible_px[k] > 0 && (want || o.type == "Pedestrian")) missed.push_back(box);
       if (draw_dir && std::getenv("MATCHED") && !hit && want) {
