@@ -1878,14 +1878,19 @@ bool ObstacleExtractor::outlineAt(const cv::Mat& left, const cv::Mat& right, int
 
 ObstacleExtractor::FaceTop ObstacleExtractor::faceTop(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels,
                                 const ObstacleCluster& o, int first, int end, int dir, int d0, int d1,
-                                double baseline_m) const {
+                                double baseline_m) {
   const int gap = std::abs(end - first);
-  auto outlined = [&](int top) {
+  // The gap's columns holding an outline within 2 rows of `top`, one byte each into `hits`.
+  auto outlined = [&](int top, std::vector<std::uint8_t>& hits) {
+    hits.clear();
     int n = 0;
-    for (int k = first; k != end; k += dir) n += outlineAt(left, right, top, k, d0, d1) ? 1 : 0;
+    for (int k = first; k != end; k += dir) {
+      hits.push_back(outlineAt(left, right, top, k, d0, d1) ? 1 : 0);
+      n += hits.back();
+    }
     return n;
   };
-  const FaceTop at_top{o.box.y, outlined(o.box.y)};
+  const FaceTop at_top{o.box.y, outlined(o.box.y, face_hits_)};
   if (!params_.plain_raise_top || gap == 0 || at_top.outlined >= params_.plain_min_outline_fraction * gap)
     return at_top;
   // A gap narrower than a person may be a person's own plain clothes, or the space between a
@@ -1902,13 +1907,16 @@ ObstacleExtractor::FaceTop ObstacleExtractor::faceTop(const cv::Mat& left, const
     if (4 * features > gap) break;
   }
   if (y < highest) return at_top;
-  const FaceTop raised{y, outlined(y)};
+  const FaceTop raised{y, outlined(y, raised_hits_)};
   if (raised.outlined < params_.plain_min_outline_fraction * gap) return at_top;
   // The side reaches up there too: on at least a quarter of the rows between (any, when they are
   // within the outline's own +-2 rows), one of its plain_side_reach_px columns next to the gap
   // holds a feature matching at the offsets. A person standing before a plain wall does not.
   const int between = o.box.y - y - 1;
-  if (between <= 2) return raised;
+  if (between <= 2) {
+    face_hits_.swap(raised_hits_);
+    return raised;
+  }
   int rows = 0;
   for (int r = y + 1; r < o.box.y; ++r) {
     const std::uint8_t* l = left.ptr<std::uint8_t>(r);
@@ -1922,7 +1930,9 @@ ObstacleExtractor::FaceTop ObstacleExtractor::faceTop(const cv::Mat& left, const
       }
     }
   }
-  return 4 * rows >= between ? raised : at_top;
+  if (4 * rows < between) return at_top;
+  face_hits_.swap(raised_hits_);
+  return raised;
 }
 
 bool ObstacleExtractor::atFoot(const GroundProfile& ground, const ObstacleCluster& o, int y, int x) const {
@@ -2205,6 +2215,8 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
   const int cols = left.cols;
   const int tol = params_.offset_tolerance_px;
   hidden_columns_.reserve(static_cast<std::size_t>(cols));  // any gap is narrower than the image
+  face_hits_.reserve(static_cast<std::size_t>(cols));
+  raised_hits_.reserve(static_cast<std::size_t>(cols));
   int joins = 0;
   for (std::size_t i = 0; i < obstacles.size(); ++i) {
     for (const int dir : {+1, -1}) {
@@ -2275,8 +2287,8 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
           return false;
         const int top = topOf().row;
         int hits = 0, end = -1;
-        for (int k = first; k != x; k += dir) {
-          if (!outlineAt(left, right, top, k, d_lo, d_hi)) continue;
+        for (int k = first, j = 0; k != x; k += dir, ++j) {
+          if (!face_hits_[static_cast<std::size_t>(j)]) continue;
           ++hits;
           if (hits >= params_.plain_min_outline_fraction * (std::abs(k - first) + 1)) end = k;
         }

@@ -655,6 +655,8 @@ class ObstacleExtractor {
   std::vector<FaceColumn> face_columns_;
   std::vector<std::uint8_t> hidden_columns_;  // joinPlainFaces: gap columns behind a nearer obstacle
   std::vector<std::uint8_t> outline_hits_;    // growAlongTopOutline: per tested column, the outline matched
+  std::vector<std::uint8_t> face_hits_;       // faceTop: per gap column, the outline matched at the row taken
+  std::vector<std::uint8_t> raised_hits_;     // faceTop: the same at a raised row, before it is taken
   std::vector<int> pixels_above_foot_;        // splitGroundLinks: an obstacle's pixels above its foot per column
   struct LinkPart {
     int a = 0, b = 0;  // columns relative to the box
@@ -668,13 +670,14 @@ class ObstacleExtractor {
   // step `dir`) beside obstacle o: o's top when at least plain_min_outline_fraction of the gap's
   // columns hold an outline there; else, with plain_raise_top, the first row above it at which the
   // gap stops being plain, when that row is outlined so and o's columns next to the gap hold
-  // matching features on a quarter of the rows up to it; else o's top.
+  // matching features on a quarter of the rows up to it; else o's top. face_hits_ holds, per gap
+  // column from `first`, whether the outline matched at the row returned.
   struct FaceTop {
     int row;       // the outline's row
     int outlined;  // gap columns holding a matching outline within 2 rows of it
   };
   FaceTop faceTop(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels, const ObstacleCluster& o,
-                  int first, int end, int dir, int d0, int d1, double baseline_m) const;
+                  int first, int end, int dir, int d0, int d1, double baseline_m);
   // Does the ground, background or (stride_unassigned) unassigned feature at (y, x) stand at
   // offset d (extendStrides' test)?
   bool standsAt(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, const cv::Mat& labels, int y,
