@@ -2203,6 +2203,83 @@ int ObstacleExtractor::joinStackedParts(const cv::Mat& left, const cv::Mat& righ
   return joins;
 }
 
+int ObstacleExtractor::keepHiddenFeet(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
+                                      cv::Mat& labels, std::vector<ObstacleCluster>& obstacles, double baseline_m) const {
+  // Only a measured ground line says where the ground would show: on weak texture it shows little anywhere.
+  if (!params_.keep_hidden_feet || ground.source != GroundSource::kHough || !(baseline_m > 0.0)) return 0;
+  requireMono8Pair(left, right, labels);
+  const int tol = params_.offset_tolerance_px;
+  auto behind = [](std::uint8_t v) { return v == kLabelGround || v == kLabelBackground; };
+  int kept = 0;
+  for (const FloatingPart& f : floating_) {
+    if (static_cast<int>(obstacles.size()) >= params_.max_obstacles) break;
+    // Taken in since by an obstacle at its offsets (a cabin joined to its body).
+    bool taken = false;
+    for (const ObstacleCluster& o : obstacles)
+      taken |= f.offset >= o.min_offset_px - tol - 1 && f.offset <= o.max_offset_px + tol + 1 &&
+               overlapOfSmaller(o.box, f.box) >= params_.merge_overlap;
+    if (taken) continue;
+    // Short parts are left alone: chance matches far above their contact, a person's arm.
+    if (f.box.height * baseline_m / std::max(1, f.offset) < params_.weak_min_height_m) continue;
+    // Below the part, down to its contact row, the ground (or the background) shows unless
+    // something nearer hides it: its matched pixels there are few.
+    const int bottom = f.box.y + f.box.height - 1;
+    int last = bottom;
+    long below = 0, area = 0;
+    for (int x = f.box.x; x < f.box.x + f.box.width; ++x) {
+      const int contact = std::min(contactRowAt(f.offset, x), labels.rows - 1);
+      last = std::max(last, contact);
+      for (int y = bottom + 1; y <= contact; ++y) {
+        below += behind(labels.ptr<std::uint8_t>(y)[x]);
+        ++area;
+      }
+    }
+    if (area == 0 || static_cast<double>(below) > params_.hidden_foot_max_behind * static_cast<double>(area)) continue;
+    // ... while across the image, on the same rows, they are many (the ground there is textured).
+    long across = 0;
+    for (int y = bottom + 1; y <= last; ++y) {
+      const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+      for (int x = 0; x < labels.cols; ++x) across += behind(lab[x]);
+    }
+    if (static_cast<double>(across) <
+        params_.hidden_foot_min_behind_across * static_cast<double>(last - bottom) * labels.cols)
+      continue;
+    // An obstacle of its own: its pixels (the rejection left them unassigned) that match at its offsets.
+    const int label = kLabelFirstObstacle + static_cast<int>(obstacles.size());
+    if (label > 255) break;
+    ObstacleCluster c;
+    c.label = label;
+    c.offset_px = f.offset;
+    c.min_offset_px = f.min_offset;
+    c.max_offset_px = f.max_offset;
+    c.box = f.box;
+    c.feature_count = 0;
+    for (int y = f.box.y; y <= bottom; ++y) {
+      std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+      const std::uint8_t* l = left.ptr<std::uint8_t>(y);
+      const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+      for (int x = f.box.x; x < f.box.x + f.box.width; ++x) {
+        if (lab[x] != kLabelUnassigned ||
+            !matchAt(l, r, x, std::max(0, f.min_offset - tol), f.max_offset + tol, params_.grey_tolerance,
+                     params_.match_half_window_px, left.cols))
+          continue;
+        lab[x] = static_cast<std::uint8_t>(label);
+        ++c.feature_count;
+      }
+    }
+    // Later obstacles took most of its pixels: it is theirs.
+    if (c.feature_count < std::min(params_.min_cluster_features, params_.weak_cluster_features)) {
+      LabelMap back = unchangedLabels();
+      back[static_cast<std::size_t>(label)] = kLabelUnassigned;
+      relabel(labels, back, f.box);
+      continue;
+    }
+    obstacles.push_back(c);
+    ++kept;
+  }
+  return kept;
+}
+
 int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
                                       cv::Mat& labels, std::vector<ObstacleCluster>& obstacles, double baseline_m) {
   // Where the ground line was not measured (its texture too weak), a plain gap beside an obstacle

@@ -28,7 +28,8 @@
 //    left camera sees (trimOccludedLeft), and the sides of plain faces, at one offset or
 //    receding in depth, are joined into one obstacle (joinPlainFaces), and so are parts of one
 //    face receding in depth whose top outline runs between them (joinRecedingParts); a part of a
-//    plain face receding in depth grows along its predicted top outline (growAlongTopOutline); last, side columns
+//    plain face receding in depth grows along its predicted top outline (growAlongTopOutline); a part
+//    rejected as floating whose foot something nearer hides becomes an obstacle (keepHiddenFeet); last, side columns
 //    whose pixels do not pin the offset (the feature mask's reach into a plain surround) are
 //    trimmed (trimPlainSides), and so are side columns none of whose pixels stands at the
 //    offset rather than at their row's ground (level streaks of the ground, trimStreakSides).
@@ -138,6 +139,12 @@ struct ObstacleParams {
   bool link_plain_outline = true;      // only plain link columns count as a face's upper outline
   bool join_stacked_parts = true;      // a floating part resting on a nearer obstacle joins it ...
   double stacked_max_depth_m = 2.5;    // ... when at most this much farther (a vehicle's cabin behind its tail)
+  // A part rejected as floating whose foot something nearer hides (a post behind a plain wall) is
+  // an obstacle of its own: at least weak_min_height_m tall, ...
+  bool keep_hidden_feet = true;
+  double hidden_foot_max_behind = 0.1;          // ... at most this share of the pixels below it, down to
+                                                // its contact row, labelled ground or background ...
+  double hidden_foot_min_behind_across = 0.3;   // ... and at least this share across the image on those rows
   bool join_plain_faces = true;
   double plain_max_feature_fraction = 0.05;  // share of the gap's inner pixels that are features pinning an
                                              // offset (not along a horizontal edge) up to which it is plain;
@@ -297,6 +304,13 @@ struct ObstacleParams {
             "a candidate rejected as floating that rests on a nearer obstacle joins it (a vehicle's cabin)");
     v.field("stacked_max_depth_m", stacked_max_depth_m, 0.0, 100.0, "metres",
             "largest depth step between a floating part and the obstacle it rests on");
+    v.field("keep_hidden_feet", keep_hidden_feet, 0, 1, "",
+            "a part rejected as floating whose foot something nearer hides (a post behind a plain wall) is an "
+            "obstacle");
+    v.field("hidden_foot_max_behind", hidden_foot_max_behind, 0.0, 1.0, "",
+            "largest share of the pixels below such a part, down to its contact row, labelled ground or background");
+    v.field("hidden_foot_min_behind_across", hidden_foot_min_behind_across, 0.0, 1.0, "",
+            "smallest share of ground or background labels across the image on those rows");
     v.field("join_plain_faces", join_plain_faces, 0, 1, "", "join the two sides of a plain face");
     v.field("plain_max_feature_fraction", plain_max_feature_fraction, 0.0, 1.0, "",
             "share of the gap that is features pinning an offset (not horizontal edges; one side only: "
@@ -476,6 +490,13 @@ class ObstacleExtractor {
   // above its body) joins it (ObstacleParams::join_stacked_parts). Returns the joins made.
   int joinStackedParts(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels,
                        std::vector<ObstacleCluster>& obstacles, double focal_baseline) const;
+  // A part rejected as floating, at least weak_min_height_m tall, below which down to its contact
+  // row hardly any pixel shows the ground or background while across the image on those rows many
+  // do (ObstacleParams::keep_hidden_feet): its foot is hidden behind something nearer (a post
+  // behind a plain wall), and it becomes an obstacle with its visible box. Only on frames whose
+  // ground line was measured. Returns the obstacles added.
+  int keepHiddenFeet(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
+                     std::vector<ObstacleCluster>& obstacles, double baseline_m) const;
 
   // Drops the obstacles that the trims above left with fewer matched pixels than the loop
   // accepts for any cluster (the smaller of min_cluster_features and weak_cluster_features):

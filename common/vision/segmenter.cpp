@@ -136,6 +136,7 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
                                  rig.baseline_m);
   obstacles_.joinStackedParts(left_features, right_features, out.labels, out.obstacles,
                               rig.focal_px * rig.baseline_m);
+  obstacles_.keepHiddenFeet(left_features, right_features, out.ground, out.labels, out.obstacles, rig.baseline_m);
   obstacles_.trimForeignSides(left_features, right_features, out.labels, out.obstacles,
                               rig.focal_px * rig.baseline_m);
   obstacles_.splitGroundLinks(left_features, right_features, out.ground, out.labels, out.obstacles, rig.baseline_m);

@@ -121,6 +121,23 @@ int main(int argc, char** argv) {
         std::printf("   row %3zu truth %6.2f found %6.2f\n", y, static_cast<double>(t.ground_offset_per_row[y]),
                     static_cast<double>(r.ground.offset_per_row[y]));
     }
+    if (const char* spec = std::getenv("DUMPROW")) {
+      // DUMPROW=y,x0,x1,d: row y over columns x0..x1, left features and the right ones d to the left, the
+      // raw images the same way, and the true disparity x10.
+      int y = 0, x0 = 0, x1 = 0, dd = 0;
+      std::sscanf(spec, "%d,%d,%d,%d", &y, &x0, &x1, &dd);
+      std::printf("   L  ");
+      for (int x = x0; x <= x1; ++x) std::printf("%4d", r.left_features.at<std::uint8_t>(y, x));
+      std::printf("\n   R  ");
+      for (int x = x0; x <= x1; ++x) std::printf("%4d", x - dd >= 0 ? r.right_features.at<std::uint8_t>(y, x - dd) : -1);
+      std::printf("\n   Li ");
+      for (int x = x0; x <= x1; ++x) std::printf("%4d", pair.left.at<std::uint8_t>(y, x));
+      std::printf("\n   Ri ");
+      for (int x = x0; x <= x1; ++x) std::printf("%4d", x - dd >= 0 ? pair.right.at<std::uint8_t>(y, x - dd) : -1);
+      std::printf("\n   D  ");
+      for (int x = x0; x <= x1; ++x) std::printf("%4.0f", 10.0 * static_cast<double>(pair.truth->disparity.at<float>(y, x)));
+      std::printf("\n");
+    }
     if (const char* spec = std::getenv("DUMPLAB")) {
       // DUMPLAB=x0,x1,y0,y1,d: per pixel the label (. none, u unassigned, g ground, b background,
       // digit obstacle), upper case where the pixel matches the right image at d (+-1, window).
