@@ -2204,7 +2204,8 @@ int ObstacleExtractor::joinStackedParts(const cv::Mat& left, const cv::Mat& righ
 }
 
 int ObstacleExtractor::keepHiddenFeet(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
-                                      cv::Mat& labels, std::vector<ObstacleCluster>& obstacles, double baseline_m) const {
+                                      cv::Mat& labels, std::vector<ObstacleCluster>& obstacles,
+                                      double baseline_m) const {
   // Only a measured ground line says where the ground would show: on weak texture it shows little anywhere.
   if (!params_.keep_hidden_feet || ground.source != GroundSource::kHough || !(baseline_m > 0.0)) return 0;
   requireMono8Pair(left, right, labels);

@@ -129,13 +129,15 @@ int main(int argc, char** argv) {
       std::printf("   L  ");
       for (int x = x0; x <= x1; ++x) std::printf("%4d", r.left_features.at<std::uint8_t>(y, x));
       std::printf("\n   R  ");
-      for (int x = x0; x <= x1; ++x) std::printf("%4d", x - dd >= 0 ? r.right_features.at<std::uint8_t>(y, x - dd) : -1);
+      for (int x = x0; x <= x1; ++x)
+        std::printf("%4d", x - dd >= 0 ? r.right_features.at<std::uint8_t>(y, x - dd) : -1);
       std::printf("\n   Li ");
       for (int x = x0; x <= x1; ++x) std::printf("%4d", pair.left.at<std::uint8_t>(y, x));
       std::printf("\n   Ri ");
       for (int x = x0; x <= x1; ++x) std::printf("%4d", x - dd >= 0 ? pair.right.at<std::uint8_t>(y, x - dd) : -1);
       std::printf("\n   D  ");
-      for (int x = x0; x <= x1; ++x) std::printf("%4.0f", 10.0 * static_cast<double>(pair.truth->disparity.at<float>(y, x)));
+      for (int x = x0; x <= x1; ++x)
+        std::printf("%4.0f", 10.0 * static_cast<double>(pair.truth->disparity.at<float>(y, x)));
       std::printf("\n");
     }
     if (const char* spec = std::getenv("DUMPLAB")) {
