@@ -2418,6 +2418,34 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
   // outlines through their centres, match the offset line through their centres, and the gap
   // is the face's: textured with features matching the line rather than what is behind, or
   // plain with its top outline matching and textured surroundings.
+  // A nearer part between two parts of one farther face at one offset (a person before a plain
+  // wall whose two ends were found) stands in front of that face: it is not the face's near end.
+  auto inFrontOfFace = [&](const ObstacleCluster& a, const ObstacleCluster& f) {
+    const bool f_left = f.box.x < a.box.x;
+    const int a_end = a.box.x + a.box.width;  // exclusive
+    const int f_top = f.box.y, f_bottom = f.box.y + f.box.height - 1;
+    const int m = std::max(2, f.box.height / 8);
+    const double hf = f.box.height * baseline_m / f.offset_px;
+    for (const ObstacleCluster& g : obstacles) {
+      if (&g == &a || &g == &f || std::abs(g.offset_px - f.offset_px) > tol + 1 || g.offset_px < 1) continue;
+      const int g_end = g.box.x + g.box.width;
+      if (f_left ? g.box.x < a_end : g_end > a.box.x) continue;  // beyond a, away from f
+      if (std::abs(g.box.y - f_top) > m) continue;                // the face's top outline
+      const double hg = g.box.height * baseline_m / g.offset_px;
+      if (std::max(hf, hg) > (1.0 + params_.plain_height_tolerance) * std::min(hf, hg)) continue;
+      const int x0 = f_left ? f.box.x : g.box.x, x1 = f_left ? g_end - 1 : f.box.x + f.box.width - 1;
+      if ((x1 - x0 + 1) * baseline_m / f.offset_px > params_.plain_max_width_m) continue;
+      // Between a and g the face is plain.
+      int between = 0, plain_columns = 0;
+      for (int x = f_left ? a_end : g_end; x < (f_left ? g.box.x : a.box.x); ++x) {
+        ++between;
+        plain_columns += plainColumn(labels, x, f_top + m, f_bottom - m);
+      }
+      const bool plain = 4 * plain_columns >= 3 * between;
+      if (plain) return true;
+    }
+    return false;
+  };
   auto receding = [&](const ObstacleCluster& a, const ObstacleCluster& f) {
     const double da = a.offset_px, df = f.offset_px;
     if (df < 1.0 || da <= df) return false;
@@ -2428,6 +2456,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
     if (std::max(ha, hf) > (1.0 + params_.plain_height_tolerance) * std::min(ha, hf)) return false;
     const double ca = a.box.x + 0.5 * (a.box.width - 1), cf = f.box.x + 0.5 * (f.box.width - 1);
     if (std::abs(cf - ca) < 1.0) return false;
+    if (params_.receding_front_of_face && inFrontOfFace(a, f)) return false;
     // The columns: the offset line, the outlines through the parts' tops and bottoms, and the
     // features between them (the counts the verdict needs are known before any matching).
     std::vector<FaceColumn>& columns = face_columns_;

@@ -859,6 +859,16 @@ TEST(SyntheticObstacles, TexturedGapIsNoPlainFace) {
   expectFoundOnlyWithTheStep(as_plain, "Misc", {{401, 703}, {427, 312}});
 }
 
+// A person before a plain wall whose two ends were found (seed 404: the person 24.8 m away at
+// offset 16, the wall's ends at offset 11 on both sides of him) is no receding face's near end:
+// joined to the left end over an 8-column gap and then to the right one, his obstacle came out
+// 105 columns wide.
+TEST(SyntheticObstacles, NearerPartBeforeAFaceIsNotItsEnd) {
+  SegmenterParams as_end;
+  as_end.obstacles.receding_front_of_face = false;
+  expectFoundOnlyWithTheStep(as_end, "Pedestrian", {{404, 697}});
+}
+
 // A plain wall in front of textured hills: the removal takes its sides' upper parts with the
 // background, so its sides come out with tops 4-38 rows below the wall's, where the gap between
 // them holds no top outline. The outline lies where the gap stops being plain, above the sides'
