@@ -2167,6 +2167,25 @@ int ObstacleExtractor::trimPlainSides(const cv::Mat& left, cv::Mat& labels,
   return trimmed;
 }
 
+int ObstacleExtractor::claimUnassigned(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels,
+                                       const FloatingPart& f, int label) const {
+  const int tol = params_.offset_tolerance_px;
+  int claimed = 0;
+  for (int y = f.box.y; y < f.box.y + f.box.height; ++y) {
+    std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+    const std::uint8_t* l = left.ptr<std::uint8_t>(y);
+    const std::uint8_t* r = right.ptr<std::uint8_t>(y);
+    for (int x = f.box.x; x < f.box.x + f.box.width; ++x) {
+      if (lab[x] != kLabelUnassigned || !matchAt(l, r, x, std::max(0, f.min_offset - tol), f.max_offset + tol,
+                                                 params_.grey_tolerance, params_.match_half_window_px, left.cols))
+        continue;
+      lab[x] = static_cast<std::uint8_t>(label);
+      ++claimed;
+    }
+  }
+  return claimed;
+}
+
 int ObstacleExtractor::joinStackedParts(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels,
                                         std::vector<ObstacleCluster>& obstacles, double focal_baseline) const {
   if (!params_.join_stacked_parts || !(focal_baseline > 0.0)) return 0;
@@ -2181,19 +2200,7 @@ int ObstacleExtractor::joinStackedParts(const cv::Mat& left, const cv::Mat& righ
       if (std::abs(o.box.y - bottom) > reach) continue;    // resting on its top
       if (std::min(o.box.x + o.box.width, f.box.x + f.box.width) <= std::max(o.box.x, f.box.x)) continue;
       // The part's pixels (the rejection left them unassigned) that match at its offsets join.
-      for (int y = f.box.y; y <= bottom; ++y) {
-        std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
-        const std::uint8_t* l = left.ptr<std::uint8_t>(y);
-        const std::uint8_t* r = right.ptr<std::uint8_t>(y);
-        for (int x = f.box.x; x < f.box.x + f.box.width; ++x) {
-          if (lab[x] != kLabelUnassigned) continue;
-          if (!matchAt(l, r, x, std::max(0, f.min_offset - tol), f.max_offset + tol, params_.grey_tolerance,
-                       params_.match_half_window_px, left.cols))
-            continue;
-          lab[x] = static_cast<std::uint8_t>(o.label);
-          ++o.feature_count;
-        }
-      }
+      o.feature_count += claimUnassigned(left, right, labels, f, o.label);
       o.box |= f.box;
       o.min_offset_px = std::min(o.min_offset_px, f.min_offset);
       ++joins;
@@ -2254,20 +2261,7 @@ int ObstacleExtractor::keepHiddenFeet(const cv::Mat& left, const cv::Mat& right,
     c.min_offset_px = f.min_offset;
     c.max_offset_px = f.max_offset;
     c.box = f.box;
-    c.feature_count = 0;
-    for (int y = f.box.y; y <= bottom; ++y) {
-      std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
-      const std::uint8_t* l = left.ptr<std::uint8_t>(y);
-      const std::uint8_t* r = right.ptr<std::uint8_t>(y);
-      for (int x = f.box.x; x < f.box.x + f.box.width; ++x) {
-        if (lab[x] != kLabelUnassigned ||
-            !matchAt(l, r, x, std::max(0, f.min_offset - tol), f.max_offset + tol, params_.grey_tolerance,
-                     params_.match_half_window_px, left.cols))
-          continue;
-        lab[x] = static_cast<std::uint8_t>(label);
-        ++c.feature_count;
-      }
-    }
+    c.feature_count = claimUnassigned(left, right, labels, f, label);
     // Later obstacles took most of its pixels: it is theirs.
     if (c.feature_count < std::min(params_.min_cluster_features, params_.weak_cluster_features)) {
       LabelMap back = unchangedLabels();

@@ -657,6 +657,10 @@ class ObstacleExtractor {
     int offset = 0, min_offset = 0, max_offset = 0;
   };
   std::vector<FloatingPart> floating_;  // candidates rejected as floating above their contact this frame
+  // Gives `label` to the pixels of f's box that the rejection left unassigned and that match at
+  // f's offsets (+-offset_tolerance_px); returns how many.
+  int claimUnassigned(const cv::Mat& left, const cv::Mat& right, cv::Mat& labels, const FloatingPart& f,
+                      int label) const;
   static constexpr std::uint8_t kCellUnknown = 0, kCellInactive = 1, kCellActive = 2;
   struct Cell {
     std::uint8_t state = kCellUnknown;
