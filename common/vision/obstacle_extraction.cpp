@@ -2289,6 +2289,34 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
   hidden_columns_.reserve(static_cast<std::size_t>(cols));  // any gap is narrower than the image
   face_hits_.reserve(static_cast<std::size_t>(cols));
   raised_hits_.reserve(static_cast<std::size_t>(cols));
+  // A nearer part `a` with a farther face on one side (`face_left`) stands in front of that face,
+  // and is not its end, when another part `g` of the face lies beyond `a` on the other side: at an
+  // offset in [g_lo, g_hi], its top within `slack` rows of the face's `top`, of the face's height
+  // in metres (`height_m`; not tested when 0), the face from column `outer` to g's far edge no
+  // wider than plain_max_width_m, and at least three quarters of the columns between `a` and `g`
+  // plain over rows ya..yb (the side's dilated edge may take a column or two).
+  auto faceBeyond = [&](const ObstacleCluster& a, const ObstacleCluster* f, bool face_left, int g_lo, int g_hi,
+                        int top, int slack, int outer, int ya, int yb, double height_m) {
+    const int a_end = a.box.x + a.box.width;  // exclusive
+    for (const ObstacleCluster& g : obstacles) {
+      if (&g == &a || &g == f || g.offset_px < std::max(1, g_lo) || g.offset_px > g_hi) continue;
+      const int g_end = g.box.x + g.box.width;
+      if (face_left ? g.box.x < a_end : g_end > a.box.x) continue;  // beyond a, away from the face
+      if (std::abs(g.box.y - top) > slack) continue;                  // the face's top outline
+      const double hg = g.box.height * baseline_m / g.offset_px;
+      if (height_m > 0.0 && std::max(height_m, hg) > (1.0 + params_.plain_height_tolerance) * std::min(height_m, hg))
+        continue;
+      const int far_edge = face_left ? g_end - 1 : g.box.x;
+      if ((std::abs(far_edge - outer) + 1) * baseline_m / g.offset_px > params_.plain_max_width_m) continue;
+      int between = 0, plain_columns = 0;
+      for (int x = face_left ? a_end : g_end; x < (face_left ? g.box.x : a.box.x); ++x) {
+        ++between;
+        plain_columns += plainColumn(labels, x, ya, yb);
+      }
+      if (4 * plain_columns >= 3 * between) return true;
+    }
+    return false;
+  };
   int joins = 0;
   for (std::size_t i = 0; i < obstacles.size(); ++i) {
     for (const int dir : {+1, -1}) {
@@ -2397,6 +2425,11 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       const auto [outside, outside_columns] = featuresBeside(std::min(gap, 2 * a.box.width), far);
       if (top.outlined < params_.plain_min_outline_fraction * gap) continue;
       if (outside < kPlainSurroundFraction * outside_columns * inner) continue;
+      // A side farther than `a` (within the offsets the far side matched at) continuing the face
+      // beyond it: `a` stands in front of the face (a person before a wall whose far end is found).
+      if (params_.front_of_face && faceBeyond(a, nullptr, dir < 0, d_lo - 1, a.offset_px - tol - 1, top.row,
+                                              std::max(2, a.box.height / 8), far, y0, y1, 0.0))
+        continue;
       // Joined: the box spans the far side, and obstacles there at the same offsets fold into it.
       cv::Rect reach = a.box | cv::Rect(std::min(x, far), top.row, std::abs(far - x) + 1, 1);
       foldInto(i, reach, a.min_offset_px - tol - 1, a.max_offset_px + tol + 1, labels, obstacles);
@@ -2412,34 +2445,6 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
   // outlines through their centres, match the offset line through their centres, and the gap
   // is the face's: textured with features matching the line rather than what is behind, or
   // plain with its top outline matching and textured surroundings.
-  // A nearer part between two parts of one farther face at one offset (a person before a plain
-  // wall whose two ends were found) stands in front of that face: it is not the face's near end.
-  auto inFrontOfFace = [&](const ObstacleCluster& a, const ObstacleCluster& f) {
-    const bool f_left = f.box.x < a.box.x;
-    const int a_end = a.box.x + a.box.width;  // exclusive
-    const int f_top = f.box.y, f_bottom = f.box.y + f.box.height - 1;
-    const int m = std::max(2, f.box.height / 8);
-    const double hf = f.box.height * baseline_m / f.offset_px;
-    for (const ObstacleCluster& g : obstacles) {
-      if (&g == &a || &g == &f || std::abs(g.offset_px - f.offset_px) > tol + 1 || g.offset_px < 1) continue;
-      const int g_end = g.box.x + g.box.width;
-      if (f_left ? g.box.x < a_end : g_end > a.box.x) continue;  // beyond a, away from f
-      if (std::abs(g.box.y - f_top) > m) continue;                // the face's top outline
-      const double hg = g.box.height * baseline_m / g.offset_px;
-      if (std::max(hf, hg) > (1.0 + params_.plain_height_tolerance) * std::min(hf, hg)) continue;
-      const int x0 = f_left ? f.box.x : g.box.x, x1 = f_left ? g_end - 1 : f.box.x + f.box.width - 1;
-      if ((x1 - x0 + 1) * baseline_m / f.offset_px > params_.plain_max_width_m) continue;
-      // Between a and g the face is plain.
-      int between = 0, plain_columns = 0;
-      for (int x = f_left ? a_end : g_end; x < (f_left ? g.box.x : a.box.x); ++x) {
-        ++between;
-        plain_columns += plainColumn(labels, x, f_top + m, f_bottom - m);
-      }
-      const bool plain = 4 * plain_columns >= 3 * between;
-      if (plain) return true;
-    }
-    return false;
-  };
   auto receding = [&](const ObstacleCluster& a, const ObstacleCluster& f) {
     const double da = a.offset_px, df = f.offset_px;
     if (df < 1.0 || da <= df) return false;
@@ -2450,7 +2455,14 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
     if (std::max(ha, hf) > (1.0 + params_.plain_height_tolerance) * std::min(ha, hf)) return false;
     const double ca = a.box.x + 0.5 * (a.box.width - 1), cf = f.box.x + 0.5 * (f.box.width - 1);
     if (std::abs(cf - ca) < 1.0) return false;
-    if (params_.receding_front_of_face && inFrontOfFace(a, f)) return false;
+    if (params_.front_of_face) {
+      const bool f_left = f.box.x < a.box.x;
+      const int m = std::max(2, f.box.height / 8);
+      if (faceBeyond(a, &f, f_left, f.offset_px - tol - 1, f.offset_px + tol + 1, f.box.y, m,
+                     f_left ? f.box.x : f.box.x + f.box.width - 1, f.box.y + m, f.box.y + f.box.height - 1 - m,
+                     f.box.height * baseline_m / df))
+        return false;
+    }
     // The columns: the offset line, the outlines through the parts' tops and bottoms, and the
     // features between them (the counts the verdict needs are known before any matching).
     std::vector<FaceColumn>& columns = face_columns_;

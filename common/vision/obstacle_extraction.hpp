@@ -152,9 +152,10 @@ struct ObstacleParams {
   double plain_min_outline_fraction = 0.5;   // share of the gap's columns whose top outline matches at the offset
   double plain_max_width_m = 15.0;           // widest gap joined (a long vehicle's side)
   double plain_height_tolerance = 0.25;      // a receding face's two sides: heights in metres within this
-  bool receding_front_of_face = true;        // a nearer part between two parts of one farther face at one
-                                             // offset (their tops level, the face plain between) stands in
-                                             // front of it: it is not a receding face's near end
+  bool front_of_face = true;                 // a nearer part with a farther face on one side and another
+                                             // part of that face beyond it on the other (tops level, the
+                                             // face plain between) stands in front of it: it is not the
+                                             // face's end, for the plain faces' and the receding joins
   bool plain_one_sided = true;               // a face with one side found reaches as far as its top outline
   bool plain_raise_top = true;               // a face's top outline may lie above its side's top, where the
                                              // gap stops being plain ...
@@ -372,8 +373,8 @@ struct ObstacleParams {
             "join two parts at one offset whose gap a nearer obstacle mostly hides");
     v.field("plain_height_tolerance", plain_height_tolerance, 0.0, 10.0, "",
             "relative difference of a receding face's side heights in metres");
-    v.field("receding_front_of_face", receding_front_of_face, 0, 1, "",
-            "a nearer part between two parts of one farther face at one offset is no receding face's near end");
+    v.field("front_of_face", front_of_face, 0, 1, "",
+            "a nearer part with a farther face on one side and another part of it beyond is not the face's end");
     v.field("plain_one_sided", plain_one_sided, 0, 1, "",
             "extend a face with one side found (the other hidden or beyond the image) along its top outline");
     v.field("weak_peak_matches", weak_peak_matches, 0, 10000000, "pixels",

@@ -859,14 +859,16 @@ TEST(SyntheticObstacles, TexturedGapIsNoPlainFace) {
   expectFoundOnlyWithTheStep(as_plain, "Misc", {{401, 703}, {427, 312}});
 }
 
-// A person before a plain wall whose two ends were found (seed 404: the person 24.8 m away at
-// offset 16, the wall's ends at offset 11 on both sides of him) is no receding face's near end:
-// joined to the left end over an 8-column gap and then to the right one, his obstacle came out
-// 105 columns wide.
+// A person before a plain wall, with a part of the wall found beyond him, is not the wall's end.
+// Seed 404: the person 24.8 m away at offset 16, the wall's ends at offset 11 on both sides of
+// him; the receding join took him with the left end over an 8-column gap and then the right one
+// (105 columns wide). Seed 347: the person 26.8 m away at offset 15, the wall at 12 whose right
+// part is found beyond him; the plain face's join took him as its side, over the plain wall to
+// its left end (81 columns wide). Seed 372: a person 28.5 m away, the same way.
 TEST(SyntheticObstacles, NearerPartBeforeAFaceIsNotItsEnd) {
   SegmenterParams as_end;
-  as_end.obstacles.receding_front_of_face = false;
-  expectFoundOnlyWithTheStep(as_end, "Pedestrian", {{404, 697}});
+  as_end.obstacles.front_of_face = false;
+  expectFoundOnlyWithTheStep(as_end, "Pedestrian", {{404, 697}, {347, 526}, {372, 927}});
 }
 
 // A plain wall in front of textured hills: the removal takes its sides' upper parts with the
