@@ -165,6 +165,11 @@ void relabel(cv::Mat& labels, const LabelMap& map, cv::Rect area = cv::Rect(0, 0
   }
 }
 
+// Offset d lies at obstacle o's offsets, widened by the tolerance and one more pixel (a part of it).
+bool atOffsetsOf(int d, const ObstacleCluster& o, int tol) {
+  return d >= o.min_offset_px - tol - 1 && d <= o.max_offset_px + tol + 1;
+}
+
 double overlapOfSmaller(const cv::Rect& a, const cv::Rect& b) {
   const double inter = (a & b).area();
   const double smaller = std::min(a.area(), b.area());
@@ -1247,9 +1252,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     const cv::Rect box = verdict.box;
     const bool floating = verdict.floating, unmatched = verdict.unmatched, significant = verdict.significant;
     // An earlier obstacle at this offset that the cluster is a part of takes it in.
-    auto atOffsetOf = [&](const ObstacleCluster& earlier) {
-      return best >= earlier.min_offset_px - tol - 1 && best <= earlier.max_offset_px + tol + 1;
-    };
+    auto atOffsetOf = [&](const ObstacleCluster& earlier) { return atOffsetsOf(best, earlier, tol); };
     auto absorbInto = [&](ObstacleCluster& earlier) {
       earlier.feature_count += sweepBox(box, earlier.label, true);
       earlier.box |= box;
@@ -2224,8 +2227,7 @@ int ObstacleExtractor::keepHiddenFeet(const cv::Mat& left, const cv::Mat& right,
     // Taken in since by an obstacle at its offsets (a cabin joined to its body).
     bool taken = false;
     for (const ObstacleCluster& o : obstacles)
-      taken |= f.offset >= o.min_offset_px - tol - 1 && f.offset <= o.max_offset_px + tol + 1 &&
-               overlapOfSmaller(o.box, f.box) >= params_.merge_overlap;
+      taken |= atOffsetsOf(f.offset, o, tol) && overlapOfSmaller(o.box, f.box) >= params_.merge_overlap;
     if (taken) continue;
     // Short parts are left alone: chance matches far above their contact, a person's arm.
     if (f.box.height * baseline_m / std::max(1, f.offset) < params_.weak_min_height_m) continue;
@@ -2459,8 +2461,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
       const bool f_left = f.box.x < a.box.x;
       const int m = std::max(2, f.box.height / 8);
       if (faceBeyond(a, &f, f_left, f.offset_px - tol - 1, f.offset_px + tol + 1, f.box.y, m,
-                     f_left ? f.box.x : f.box.x + f.box.width - 1, f.box.y + m, f.box.y + f.box.height - 1 - m,
-                     f.box.height * baseline_m / df))
+                     f_left ? f.box.x : f.box.x + f.box.width - 1, f.box.y + m, f.box.y + f.box.height - 1 - m, hf))
         return false;
     }
     // The columns: the offset line, the outlines through the parts' tops and bottoms, and the

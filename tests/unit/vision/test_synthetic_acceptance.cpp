@@ -53,13 +53,18 @@ std::size_t objectNear(const SceneTruth& t, const char* type, int x) {
 }
 
 // The object of `type` near column x of random scene `seed` is found with the defaults, and, when
-// `without` is given (the step under test turned off), not with it.
-void expectFound(const char* type, int seed, int x, const SegmenterParams* without = nullptr) {
+// `without` is given (the step under test turned off), not with it; when `with` is given (another
+// step turned off, the one under test on), also with that.
+void expectFound(const char* type, int seed, int x, const SegmenterParams* without = nullptr,
+                 const SegmenterParams* with = nullptr) {
   const StereoPair pair =
       renderSyntheticScene(randomSceneParams(static_cast<std::uint64_t>(seed)), static_cast<std::uint64_t>(seed));
   const std::size_t k = objectNear(*pair.truth, type, x);
   ASSERT_LT(k, pair.truth->objects.size()) << "seed " << seed << ": no " << type << " at column " << x;
   EXPECT_TRUE(objectFound(segment(pair), pair, k)) << "seed " << seed;
+  if (with != nullptr) {
+    EXPECT_TRUE(objectFound(segment(pair, *with), pair, k)) << "seed " << seed;
+  }
   if (without != nullptr) {
     EXPECT_FALSE(objectFound(segment(pair, *without), pair, k)) << "seed " << seed;
   }
@@ -912,15 +917,8 @@ TEST(SyntheticObstacles, PeopleJoinedAlongTheGroundAreSplit) {
   split.obstacles.front_of_face = false;
   SegmenterParams joined = split;
   joined.obstacles.split_ground_links = false;
-  for (const auto& [seed, x] : {std::pair<int, int>{336, 654}, {580, 165}}) {
-    const StereoPair pair =
-        renderSyntheticScene(randomSceneParams(static_cast<std::uint64_t>(seed)), static_cast<std::uint64_t>(seed));
-    const std::size_t k = objectNear(*pair.truth, "Pedestrian", x);
-    ASSERT_LT(k, pair.truth->objects.size()) << "seed " << seed;
-    EXPECT_TRUE(objectFound(segment(pair), pair, k)) << "seed " << seed;
-    EXPECT_TRUE(objectFound(segment(pair, split), pair, k)) << "seed " << seed;
-    EXPECT_FALSE(objectFound(segment(pair, joined), pair, k)) << "seed " << seed;
-  }
+  expectFound("Pedestrian", 336, 654, &joined, &split);
+  expectFound("Pedestrian", 580, 165, &joined, &split);
   expectFound("Car", 4, 587);
 }
 
