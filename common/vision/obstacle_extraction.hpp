@@ -161,6 +161,9 @@ struct ObstacleParams {
                                              // gap stops being plain ...
   double plain_raise_min_gap_m = 0.5;        // ... over a gap at least this wide (metres; narrower: a person)
   bool textured_gap_not_plain = true;        // receding parts: a textured gap is never judged as a plain one
+  double textured_gap_min_pinning = 0.05;    // receding parts: share of a textured gap's features that must
+                                             // pin an offset (fewer: level streaks of the ground, which match
+                                             // at every offset, fill it; no face is seen there)
   bool plain_outline_faces = true;           // a plain face receding out of view grows from a part found at
                                              // its far end along its top outline (offset linear along it)
   double plain_outline_min_walk_widths = 0.0;  // columns out to the border, in the part's widths, it needs
@@ -328,6 +331,8 @@ struct ObstacleParams {
     v.field("textured_gap_not_plain", textured_gap_not_plain, 0, 1, "",
             "two parts of a receding face: a textured gap between them is judged by its matches only, not as a "
             "plain gap");
+    v.field("textured_gap_min_pinning", textured_gap_min_pinning, 0.0, 1.0, "",
+            "two parts of a receding face: share of a textured gap's features that must pin an offset");
     v.field("plain_max_width_m", plain_max_width_m, 0.0, 1000.0, "metres", "widest plain gap joined");
     v.field("plain_outline_faces", plain_outline_faces, 0, 1, "",
             "grow a part along the top outline of a plain face receding out of view");
