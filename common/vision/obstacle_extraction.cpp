@@ -1398,6 +1398,7 @@ void ObstacleExtractor::foldInto(std::size_t& i, const cv::Rect& reach, int d_lo
       joined.max_offset_px = std::max(joined.max_offset_px, b.max_offset_px);
       joined.feature_count += b.feature_count;
       folded_[j] = 1;
+      joined.joined_parts = true;
     }
   }
   replaceFolded(i, joined, labels, obstacles);
@@ -1513,6 +1514,7 @@ int ObstacleExtractor::joinRecedingParts(const cv::Mat& left, const cv::Mat& rig
         joined.max_offset_px = std::max({a.max_offset_px, b.max_offset_px, a.offset_px, b.offset_px});
         if (b.feature_count > a.feature_count) joined.offset_px = b.offset_px;  // the larger part's offset
         joined.feature_count += b.feature_count + gap_matches;
+        joined.joined_parts = true;
         folded_.assign(obstacles.size(), 0);
         folded_[j] = 1;
         replaceFolded(i, joined, labels, obstacles);
@@ -2015,7 +2017,20 @@ int ObstacleExtractor::splitGroundLinks(const cv::Mat& left, const cv::Mat& righ
       ++link_columns;
       // With `link_plain_outline`, only a plain column (at most a quarter of its inner rows
       // features) can be a face's: textured hills behind a link match along the top by chance.
-      if (params_.link_plain_outline && !plainColumn(labels, o.box.x + k, inner_top, inner_bottom)) continue;
+      // In a face joined from parts found apart, with `link_face_pinning`, the column is plain when
+      // few of its features pin an offset, as the joins judged it.
+      if (params_.link_plain_outline) {
+        const int x = o.box.x + k;
+        if (params_.link_face_pinning && o.joined_parts) {
+          int pinning = 0;
+          for (int y = inner_top; y <= inner_bottom; ++y)
+            pinning += labels.ptr<std::uint8_t>(y)[x] != kLabelNone &&
+                       pinsOffset(left.ptr<std::uint8_t>(y), x, cols, params_.grey_tolerance);
+          if (4 * pinning > inner_bottom - inner_top + 1) continue;
+        } else if (!plainColumn(labels, x, inner_top, inner_bottom)) {
+          continue;
+        }
+      }
       outlined += outlineAt(left, right, o.box.y, o.box.x + k, d0, d1) ? 1 : 0;
     }
     if (outlined >= params_.plain_min_outline_fraction * link_columns) continue;
@@ -2043,6 +2058,7 @@ int ObstacleExtractor::splitGroundLinks(const cv::Mat& left, const cv::Mat& righ
           continue;
         ObstacleCluster c = o;
         c.label = label;
+        c.joined_parts = false;
         c.box = cv::Rect(x0, top, x1 - x0 + 1, bottom - top + 1);
         c.feature_count = 0;
         for (int y = top; y <= bottom; ++y) {

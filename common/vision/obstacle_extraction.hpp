@@ -136,7 +136,10 @@ struct ObstacleParams {
   bool split_ground_links = true;
   double link_min_part_width_m = 0.2;  // narrowest part kept as a person's (seen from the side, the chest's depth)
   bool link_keep_parts = true;         // the other person-sized parts become obstacles of their own
-  bool link_plain_outline = true;      // only plain link columns count as a face's upper outline
+  bool link_plain_outline = true;      // only plain link columns count as a face's upper outline ...
+  bool link_face_pinning = true;       // ... and in a face joined from parts found apart, a column is plain
+                                       // when few of its features pin an offset (the joins' own test: a
+                                       // vehicle's window band and panel edges match at every offset)
   bool join_stacked_parts = true;      // a floating part resting on a nearer obstacle joins it ...
   double stacked_max_depth_m = 2.5;    // ... when at most this much farther (a vehicle's cabin behind its tail)
   // A part rejected as floating whose foot something nearer hides (a post behind a plain wall) is
@@ -307,6 +310,9 @@ struct ObstacleParams {
             "the other parts between links that have a person's size become obstacles of their own");
     v.field("link_plain_outline", link_plain_outline, 0, 1, "",
             "a link column counts as a plain face's (its upper outline matching) only when it is plain");
+    v.field("link_face_pinning", link_face_pinning, 0, 1, "",
+            "in a face joined from parts found apart, a link column is plain when at most a quarter of its "
+            "inner rows are features pinning an offset");
     v.field("join_stacked_parts", join_stacked_parts, 0, 1, "",
             "a candidate rejected as floating that rests on a nearer obstacle joins it (a vehicle's cabin)");
     v.field("stacked_max_depth_m", stacked_max_depth_m, 0.0, 100.0, "metres",
@@ -467,7 +473,9 @@ class ObstacleExtractor {
   // link_min_part_width_m to weak_max_width_m (from its offset and baseline_m), and the runs are
   // not a plain face's inside (fewer than plain_min_outline_fraction of their columns matching at
   // the offset along the box's top: a vehicle's or a box's upper outline; with link_plain_outline
-  // only plain link columns count), the obstacle keeps that part. With link_keep_parts the other
+  // only plain link columns count, and with link_face_pinning a column of a face joined from parts
+  // found apart is plain when at most a quarter of its inner rows are features pinning an offset),
+  // the obstacle keeps that part. With link_keep_parts the other
   // parts of a person's size become obstacles of their own (appended); the rest of its pixels
   // become unassigned. Returns the number of columns removed.
   int splitGroundLinks(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,

@@ -68,6 +68,7 @@ struct ObstacleCluster {
   int max_offset_px = 0;
   cv::Rect box;                     // left image, pixels
   int feature_count = 0;            // feature pixels labelled with this cluster
+  bool joined_parts = false;        // a face joined from parts found apart (its sides, receding parts)
 };
 
 struct SegmentationResult {
