@@ -121,6 +121,14 @@ int featuresInColumn(const cv::Mat& labels, int x, int y0, int y1) {
   return n;
 }
 
+// Feature pixels of column x over rows y0..y1 (clipped to the image) that pin an offset.
+int pinningInColumn(const cv::Mat& left, const cv::Mat& labels, int x, int y0, int y1, int tol) {
+  int n = 0;
+  for (int y = std::max(0, y0); y <= std::min(labels.rows - 1, y1); ++y)
+    n += labels.ptr<std::uint8_t>(y)[x] != kLabelNone && pinsOffset(left.ptr<std::uint8_t>(y), x, left.cols, tol);
+  return n;
+}
+
 // A column is plain over rows y0..y1 when at most a quarter of them are features.
 bool plainColumn(const cv::Mat& labels, int x, int y0, int y1) {
   return 4 * featuresInColumn(labels, x, y0, y1) <= y1 - y0 + 1;
@@ -2022,11 +2030,9 @@ int ObstacleExtractor::splitGroundLinks(const cv::Mat& left, const cv::Mat& righ
       if (params_.link_plain_outline) {
         const int x = o.box.x + k;
         if (params_.link_face_pinning && o.joined_parts) {
-          int pinning = 0;
-          for (int y = inner_top; y <= inner_bottom; ++y)
-            pinning += labels.ptr<std::uint8_t>(y)[x] != kLabelNone &&
-                       pinsOffset(left.ptr<std::uint8_t>(y), x, cols, params_.grey_tolerance);
-          if (4 * pinning > inner_bottom - inner_top + 1) continue;
+          if (4 * pinningInColumn(left, labels, x, inner_top, inner_bottom, params_.grey_tolerance) >
+              inner_bottom - inner_top + 1)
+            continue;
         } else if (!plainColumn(labels, x, inner_top, inner_bottom)) {
           continue;
         }
@@ -2533,8 +2539,8 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
           const bool m = onFace(y);
           matched += m;
           other += !m && y >= c.top + c.margin && y <= c.bottom - c.margin;
-          // In a textured gap, a match that the ground or background behind explains as well is no evidence.
           if (c.in_gap) gap_pinning += pinsOffset(left.ptr<std::uint8_t>(y), x, cols, params_.grey_tolerance);
+          // In a textured gap, a match that the ground or background behind explains as well is no evidence.
           if (m && c.in_gap) {
             const int b = offsetBehind(ground, y, x);
             column_matched += b < 0 || b >= c.d0 - 1 ||
