@@ -2517,7 +2517,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
     // A textured gap (the face's own texture): most of its features match the offset line and
     // not the ground or background behind them.
     const bool gap_textured = gap_features_total >= kPlainSurroundFraction * gap_area;
-    int features = 0, matched = 0, gap_other = 0, outlined = 0, gap_features = 0, gap_matched = 0, gap_pinning = 0;
+    int features = 0, matched = 0, gap_other = 0, outlined = 0, gap_features = 0, gap_matched = 0;
     bool blocked = false;
     // Gap columns first: once the gap is blocked and cannot be a textured face, or the matches
     // cannot reach their share whatever the columns left hold, the verdict is known.
@@ -2539,7 +2539,6 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
           const bool m = onFace(y);
           matched += m;
           other += !m && y >= c.top + c.margin && y <= c.bottom - c.margin;
-          if (c.in_gap) gap_pinning += pinsOffset(left.ptr<std::uint8_t>(y), x, cols, params_.grey_tolerance);
           // In a textured gap, a match that the ground or background behind explains as well is no evidence.
           if (m && c.in_gap) {
             const int b = offsetBehind(ground, y, x);
@@ -2565,7 +2564,12 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
     // A gap full of features that hardly pin an offset is level streaks of the ground (seen beside
     // a person, in the band left of him that the right camera cannot see): they match the line's
     // offsets as well as any other, and show neither the face's texture nor a plain face.
-    if (gap_textured && gap_pinning < params_.textured_gap_min_pinning * gap_features) return false;
+    if (gap_textured) {
+      int gap_pinning = 0;
+      for (const FaceColumn& c : columns)
+        if (c.in_gap) gap_pinning += pinningInColumn(left, labels, c.x, c.top, c.bottom, params_.grey_tolerance);
+      if (gap_pinning < params_.textured_gap_min_pinning * gap_features) return false;
+    }
     // A textured gap is the face's only when its features match the line rather than what lies
     // behind: ground streaks between a person and a farther object match the line's offsets by
     // chance, and would pass for a plain gap's outline below.
