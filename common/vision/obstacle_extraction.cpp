@@ -134,6 +134,12 @@ bool plainColumn(const cv::Mat& labels, int x, int y0, int y1) {
   return 4 * featuresInColumn(labels, x, y0, y1) <= y1 - y0 + 1;
 }
 
+// ... and plain of pinning features when at most a quarter of them are features that pin an offset
+// (horizontal edges, a window band's or a panel's, match at every offset).
+bool plainOfPinning(const cv::Mat& left, const cv::Mat& labels, int x, int y0, int y1, int tol) {
+  return 4 * pinningInColumn(left, labels, x, y0, y1, tol) <= y1 - y0 + 1;
+}
+
 // Share of features beside a plain gap, over the same rows, above which the surroundings are textured.
 constexpr double kPlainSurroundFraction = 0.2;
 
@@ -1406,7 +1412,6 @@ void ObstacleExtractor::foldInto(std::size_t& i, const cv::Rect& reach, int d_lo
       joined.max_offset_px = std::max(joined.max_offset_px, b.max_offset_px);
       joined.feature_count += b.feature_count;
       folded_[j] = 1;
-      joined.joined_parts = true;
     }
   }
   replaceFolded(i, joined, labels, obstacles);
@@ -1418,9 +1423,11 @@ void ObstacleExtractor::replaceFolded(std::size_t& i, const ObstacleCluster& joi
   LabelMap into = unchangedLabels();  // old label -> the old label it ends up under
   std::vector<ObstacleCluster>& kept = kept_;
   kept.clear();
+  bool any_folded = false;
   for (std::size_t j = 0; j < obstacles.size(); ++j) {
     if (folded_[j]) into[static_cast<std::size_t>(obstacles[j].label)] = static_cast<std::uint8_t>(a_label);
     else kept.push_back(obstacles[j]);
+    any_folded |= folded_[j] != 0;
   }
   // Renumber: the obstacles left keep their order, labels follow.
   LabelMap renumbered = into;
@@ -1428,6 +1435,7 @@ void ObstacleExtractor::replaceFolded(std::size_t& i, const ObstacleCluster& joi
     const int label = kLabelFirstObstacle + static_cast<int>(n);
     if (kept[n].label == a_label) {
       kept[n] = joined;
+      kept[n].joined_parts |= any_folded;  // a face of parts found apart
       i = n;
     }
     for (int v = 0; v < 256; ++v)
@@ -1522,7 +1530,6 @@ int ObstacleExtractor::joinRecedingParts(const cv::Mat& left, const cv::Mat& rig
         joined.max_offset_px = std::max({a.max_offset_px, b.max_offset_px, a.offset_px, b.offset_px});
         if (b.feature_count > a.feature_count) joined.offset_px = b.offset_px;  // the larger part's offset
         joined.feature_count += b.feature_count + gap_matches;
-        joined.joined_parts = true;
         folded_.assign(obstacles.size(), 0);
         folded_[j] = 1;
         replaceFolded(i, joined, labels, obstacles);
@@ -2029,13 +2036,10 @@ int ObstacleExtractor::splitGroundLinks(const cv::Mat& left, const cv::Mat& righ
       // few of its features pin an offset, as the joins judged it.
       if (params_.link_plain_outline) {
         const int x = o.box.x + k;
-        if (params_.link_face_pinning && o.joined_parts) {
-          if (4 * pinningInColumn(left, labels, x, inner_top, inner_bottom, params_.grey_tolerance) >
-              inner_bottom - inner_top + 1)
-            continue;
-        } else if (!plainColumn(labels, x, inner_top, inner_bottom)) {
-          continue;
-        }
+        const bool plain = params_.link_face_pinning && o.joined_parts
+                               ? plainOfPinning(left, labels, x, inner_top, inner_bottom, params_.grey_tolerance)
+                               : plainColumn(labels, x, inner_top, inner_bottom);
+        if (!plain) continue;
       }
       outlined += outlineAt(left, right, o.box.y, o.box.x + k, d0, d1) ? 1 : 0;
     }
