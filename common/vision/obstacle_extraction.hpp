@@ -203,6 +203,7 @@ struct ObstacleParams {
   int thin_top_gap_rows = 6;           // rows whose pixels do not match crossed
   double thin_top_min_share = 0.5;     // share of the rows added whose pixels match at the offset
   double thin_top_min_contrast = 3.0;  // how many times as often the rows added match at it as the columns beside
+  bool thin_top_other_offsets = true;  // or as often as their own columns match at offsets 3 and 6 away
   // Person-sized clusters below min_peak_matches / min_cluster_features: a person 25-35 m away
   // shows ~30-45 rows of a narrow outline. Such weaker clusters are kept when their size in
   // metres (from d* and the rig's baseline) is a person's. 0 turns this off.
@@ -380,6 +381,9 @@ struct ObstacleParams {
             "share of the rows added whose pixels must match at the offset");
     v.field("thin_top_min_contrast", thin_top_min_contrast, 0.0, 100.0, "",
             "how many times as often the rows added must match at the offset as the columns beside them");
+    v.field("thin_top_other_offsets", thin_top_other_offsets, 0, 1, "",
+            "the rows added may instead match at the offset that many times as often as at offsets 3 and 6 "
+            "either side of it");
     v.field("join_across_nearer", join_across_nearer, 0, 1, "",
             "join two parts at one offset whose gap a nearer obstacle mostly hides");
     v.field("plain_height_tolerance", plain_height_tolerance, 0.0, 10.0, "",
@@ -545,8 +549,11 @@ class ObstacleExtractor {
   // thin_top_gap_rows rows that do not hold are crossed; a row holding pixels of another obstacle
   // at another offset ends the growth. The top moves to the highest row that holds when at least
   // thin_top_min_share of the rows added hold and, over all of them, the box's columns match at
-  // the offset thin_top_min_contrast times as often as the columns beside. Returns the number of
-  // rows added.
+  // the offset thin_top_min_contrast times as often as the columns beside, or (with
+  // thin_top_other_offsets) as often as they match, on average, at the offsets 3 and 6 below and
+  // above it (+-offset_tolerance_px; those below 0 left out): hills beside a far person can be
+  // streaky and match anywhere, while his own texture matches at his offset only. Returns the
+  // number of rows added.
   int growThinTops(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels,
                    std::vector<ObstacleCluster>& obstacles, double baseline_m) const;
 
@@ -726,6 +733,12 @@ class ObstacleExtractor {
   // offset d (extendStrides' test)?
   bool standsAt(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, const cv::Mat& labels, int y,
                 int x, int d) const;
+  // Do the features of `box` match the right image at offset d (+-offset_tolerance_px)
+  // thin_top_min_contrast times as often as, on average, at the offsets 3 and 6 below and above
+  // it (those reaching below 0 left out)? A texture matches at its own offset only; a level streak
+  // or a plain surround matches at any.
+  bool matchesOwnOffsetMost(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels, const cv::Rect& box,
+                            int d) const;
   // Is (y, x) at obstacle o's foot: the ground's offset there within plain_side_contact_px of o's?
   bool atFoot(const GroundProfile& ground, const ObstacleCluster& o, int y, int x) const;
   // Obstacle i takes in `reach` and the obstacles mostly inside it whose offsets meet
