@@ -1114,6 +1114,12 @@ void GroundEstimator::rollFit(int w, GroundProfile& ground) {
     if (!fitStrips(shift, tilt)) continue;
     const int first = roll_first_row_ + b * params_.profile_band_rows;
     const int last = b == roll_bands_ - 1 ? rows - 1 : first + params_.profile_band_rows - 1;
+    // Moved that far, the band's ground would meet the background inside the band: its strips
+    // matched the hills beyond a crest (the far ground hidden), not the ground.
+    if (params_.band_above_background && std::isfinite(ground.background_offset) && first >= 0 && first < rows &&
+        static_cast<double>(ground.offset_per_row[static_cast<std::size_t>(first)]) + shift <=
+            static_cast<double>(ground.background_offset) + params_.support_tolerance_px)
+      continue;
     band_fits_.push_back(BandFit{0.5f * static_cast<float>(first + last), static_cast<float>(shift),
                                  static_cast<float>(slope + tilt)});
   }

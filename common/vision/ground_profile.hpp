@@ -67,6 +67,9 @@ struct GroundParams {
   int roll_search_px = 12;            // offsets searched on either side of the line
   double min_roll_px = 1.0;           // a change across the image below this is ignored (level ground)
   int profile_band_rows = 24;         // rows per band of the along-the-line correction (0 = one shift)
+  // A band whose shifted line would reach the background (within support_tolerance_px) on its
+  // own first row measured what lies beyond the ground (hills past a crest): its shift is not used.
+  bool band_above_background = true;
   bool prefer_previous = true;        // previous frame's line before the mounting prior
   int max_previous_age_frames = 10;   // a previous line older than this is not used
   // The mounting prior is flat ground. On a slope the ground meets the background elsewhere:
@@ -121,6 +124,9 @@ struct GroundParams {
             "row band of the ground line's measured correction (0 = one shift for the whole line)");
     v.field("prefer_previous", prefer_previous, 0, 1, "", "use the previous frame's line before the prior");
     v.field("max_previous_age_frames", max_previous_age_frames, 0, 100000, "frames", "oldest usable previous line");
+    v.field("band_above_background", band_above_background, 0, 1, "",
+            "drop a band's correction when it would bring the ground down to the background's offset on the band's "
+            "first row (the band measured the hills beyond a crest)");
     v.field("prior_background_edge", prior_background_edge, 0, 1, "",
             "also try the prior moved to meet the background's lower edge; keep the one not refuted, else the better supported");
     v.field("background_edge_share", background_edge_share, 0.0, 1.0, "",
