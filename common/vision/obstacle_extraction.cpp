@@ -1651,30 +1651,29 @@ int ObstacleExtractor::extendStrides(const cv::Mat& left, const cv::Mat& right, 
   return added;
 }
 
-bool ObstacleExtractor::matchesOwnOffsetMost(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels,
-                                              const cv::Rect& box, int d) const {
+ObstacleExtractor::OtherOffsetMatches ObstacleExtractor::matchesAtOtherOffsets(const cv::Mat& left,
+                                                                              const cv::Mat& right,
+                                                                              const cv::Mat& labels,
+                                                                              const cv::Rect& box, int d) const {
   constexpr std::array<int, 4> kOthers{-6, -3, 3, 6};
   const int tol = params_.offset_tolerance_px;
   const int cols = left.cols;
-  long own = 0, others = 0;
-  int windows = 0;
-  for (int k : kOthers) windows += d + k - tol >= 0 ? 1 : 0;
-  if (windows == 0) return false;
+  OtherOffsetMatches out;
+  for (int k : kOthers) out.windows += d + k - tol >= 0 ? 1 : 0;
+  if (out.windows == 0) return out;
   for (int y = box.y; y < box.y + box.height; ++y) {
     const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
     const std::uint8_t* l = left.ptr<std::uint8_t>(y);
     const std::uint8_t* r = right.ptr<std::uint8_t>(y);
     for (int x = box.x; x < box.x + box.width; ++x) {
       if (lab[x] == kLabelNone) continue;
-      own += matchAt(l, r, x, std::max(0, d - tol), d + tol, params_.grey_tolerance, params_.match_half_window_px, cols);
       for (int k : kOthers)
         if (d + k - tol >= 0)
-          others += matchAt(l, r, x, d + k - tol, d + k + tol, params_.grey_tolerance, params_.match_half_window_px,
-                            cols);
+          out.matches += matchAt(l, r, x, d + k - tol, d + k + tol, params_.grey_tolerance,
+                                 params_.match_half_window_px, cols);
     }
   }
-  // own >= contrast * (others / windows), without the division.
-  return static_cast<double>(own) * windows >= params_.thin_top_min_contrast * static_cast<double>(others);
+  return out;
 }
 
 int ObstacleExtractor::growThinTops(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels,
@@ -1748,10 +1747,16 @@ int ObstacleExtractor::growThinTops(const cv::Mat& left, const cv::Mat& right, c
     // Most rows added hold, and together they match at d thin_top_min_contrast times as often as
     // beside, or as at the other offsets in their own columns.
     if (top == o.box.y || held_at_top < params_.thin_top_min_share * (o.box.y - top)) continue;
+    // (at_top.matched counts the same features' matches at d that the other offsets are set against.)
+    auto matchesItsOffsetMost = [&]() {
+      const OtherOffsetMatches others =
+          matchesAtOtherOffsets(left, right, labels, cv::Rect(x0, top, x1 - x0, o.box.y - top), d);
+      return others.windows > 0 && static_cast<double>(at_top.matched) * others.windows >=
+                                       params_.thin_top_min_contrast * static_cast<double>(others.matches);
+    };
     if (static_cast<double>(at_top.matched) * at_top.features_beside <
             params_.thin_top_min_contrast * at_top.matched_beside * at_top.features &&
-        !(params_.thin_top_other_offsets &&
-          matchesOwnOffsetMost(left, right, labels, cv::Rect(x0, top, x1 - x0, o.box.y - top), d)))
+        !(params_.thin_top_other_offsets && matchesItsOffsetMost()))
       continue;
     added += o.box.y - top;
     o.box.height += o.box.y - top;

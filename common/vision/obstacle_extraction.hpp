@@ -733,12 +733,15 @@ class ObstacleExtractor {
   // offset d (extendStrides' test)?
   bool standsAt(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, const cv::Mat& labels, int y,
                 int x, int d) const;
-  // Do the features of `box` match the right image at offset d (+-offset_tolerance_px)
-  // thin_top_min_contrast times as often as, on average, at the offsets 3 and 6 below and above
-  // it (those reaching below 0 left out)? A texture matches at its own offset only; a level streak
-  // or a plain surround matches at any.
-  bool matchesOwnOffsetMost(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels, const cv::Rect& box,
-                            int d) const;
+  // The matches of the features of `box` with the right image at the offsets 3 and 6 below and
+  // above d (+-offset_tolerance_px), summed over the `windows` of them not reaching below 0. A
+  // texture matches at its own offset only; a level streak or a plain surround matches at any.
+  struct OtherOffsetMatches {
+    long matches = 0;
+    int windows = 0;
+  };
+  OtherOffsetMatches matchesAtOtherOffsets(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels,
+                                           const cv::Rect& box, int d) const;
   // Is (y, x) at obstacle o's foot: the ground's offset there within plain_side_contact_px of o's?
   bool atFoot(const GroundProfile& ground, const ObstacleCluster& o, int y, int x) const;
   // Obstacle i takes in `reach` and the obstacles mostly inside it whose offsets meet
