@@ -1651,6 +1651,80 @@ int ObstacleExtractor::extendStrides(const cv::Mat& left, const cv::Mat& right, 
   return added;
 }
 
+int ObstacleExtractor::growOverHiddenGround(const GroundProfile& ground, const cv::Mat& labels,
+                                            std::vector<ObstacleCluster>& obstacles, double baseline_m) {
+  if (!params_.grow_over_hidden_ground || ground.source != GroundSource::kHough || !(baseline_m > 0.0)) return 0;
+  const int cols = labels.cols, rows = labels.rows;
+  static_assert(kLabelBackground == kLabelGround + 1, "ground and background labels are one range");
+  auto showsBeyond = [](std::uint8_t label) {
+    return static_cast<std::uint8_t>(static_cast<std::uint8_t>(label - kLabelGround) <= 1u);
+  };
+  // Ground and background features per row (summed in byte lanes over blocks of 128 columns).
+  seen_in_row_.resize(static_cast<std::size_t>(rows));
+  for (int y = 0; y < rows; ++y) {
+    const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+    int n = 0, x = 0;
+    for (; x + 128 <= cols; x += 128) {
+      std::uint8_t block = 0;
+      for (int k = 0; k < 128; ++k) block = static_cast<std::uint8_t>(block + showsBeyond(lab[x + k]));
+      n += block;
+    }
+    for (; x < cols; ++x) n += showsBeyond(lab[x]);
+    seen_in_row_[static_cast<std::size_t>(y)] = n;
+  }
+  const std::array<int, 256> offset_of_label = offsetsOfLabels(obstacles);
+  const int tol = params_.offset_tolerance_px;
+  int added = 0;
+  for (ObstacleCluster& o : obstacles) {
+    const int d = o.offset_px;
+    if (d <= 0 || !atOneOffset(o) || o.box.width < params_.min_width_px) continue;
+    const int bottom = o.box.y + o.box.height - 1;
+    const int contact = std::min(contactRowAt(d, o.box.x + o.box.width / 2), rows - 1);
+    if (std::abs(bottom - contact) > params_.contact_tolerance_px) continue;
+    // Its rows, without the foot (where the ground's offset meets its own).
+    const int y0 = std::max(0, o.box.y), y1 = std::min(bottom, contact) - 3;
+    const int n = y1 - y0 + 1;
+    if (n < 8) continue;
+    long terrain = 0;
+    for (int y = y0; y <= y1; ++y) terrain += seen_in_row_[static_cast<std::size_t>(y)];
+    if (static_cast<double>(terrain) < params_.hidden_min_terrain_fraction * n * cols) continue;
+    // Column x's ground and background features over the rows; -1 when it holds a pixel of
+    // another obstacle outside the offset tolerance.
+    auto seen = [&](int x) {
+      int k = 0;
+      for (int y = y0; y <= y1; ++y) {
+        const std::uint8_t label = labels.ptr<std::uint8_t>(y)[x];
+        k += showsBeyond(label);
+        if (label < kLabelFirstObstacle || label == o.label) continue;
+        const int e = offset_of_label[static_cast<std::size_t>(label)];
+        if (e >= 0 && std::abs(e - d) > tol) return -1;
+      }
+      return k;
+    };
+    const int max_gap = static_cast<int>(params_.plain_max_width_m * d / baseline_m);
+    auto walk = [&](int from, int dir) {
+      int end = from, showing = 0;
+      for (int x = from + dir; x >= 0 && x < cols && std::abs(x - from) <= max_gap; x += dir) {
+        const int k = seen(x);
+        if (k < 0) return from;
+        if (k <= params_.hidden_max_seen_fraction * n) {
+          end = x;
+          showing = 0;
+        } else if (k >= params_.hidden_surround_fraction * n && ++showing >= params_.hidden_end_columns) {
+          return end;
+        }
+      }
+      return from;
+    };
+    const int x0 = walk(o.box.x, -1);
+    const int x1 = walk(o.box.x + o.box.width - 1, +1);
+    added += o.box.x - x0 + x1 - (o.box.x + o.box.width - 1);
+    o.box.width = x1 - x0 + 1;
+    o.box.x = x0;
+  }
+  return added;
+}
+
 ObstacleExtractor::OtherOffsetMatches ObstacleExtractor::matchesAtOtherOffsets(const cv::Mat& left,
                                                                               const cv::Mat& right,
                                                                               const cv::Mat& labels,

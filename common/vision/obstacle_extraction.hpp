@@ -196,6 +196,16 @@ struct ObstacleParams {
   bool stride_unassigned = true;     // unassigned features stand too (a leg's slanted outline matching the
                                      // right image's only within the window, not at the obstacle cells)
   bool stride_stop_at_others = true; // a column holding another obstacle's pixels at another offset ends the widening
+  // A plain body (a vehicle's side, a box, a wall) standing on the ground hides the ground and
+  // background beyond it: over its rows, its columns hold almost none of their features, while
+  // on textured terrain the columns beside it hold many.
+  bool grow_over_hidden_ground = true;     // widen obstacles standing on the ground over columns hiding it
+  double hidden_max_seen_fraction = 0.125; // a column hides the ground when at most this share of its rows
+                                           // holds ground or background features ...
+  double hidden_surround_fraction = 0.25;  // ... and shows it at this share or more
+  double hidden_min_terrain_fraction = 0.25;  // share of the same rows across the image holding such
+                                              // features, below which nothing grows (weak texture)
+  int hidden_end_columns = 3;              // columns showing the ground that end the widening
   // A pole's pixels in front of textured hills often match the background's offset too, so the
   // removal takes them and the cluster keeps only the pole's lower part (or a part above).
   bool grow_thin_tops = true;          // grow a narrow obstacle's top up its columns while they match at its offset
@@ -373,6 +383,16 @@ struct ObstacleParams {
     v.field("stride_unassigned", stride_unassigned, 0, 1, "", "unassigned features may stand at the offset too");
     v.field("stride_stop_at_others", stride_stop_at_others, 0, 1, "",
             "stop widening at a column holding pixels of an obstacle outside the offset tolerance");
+    v.field("grow_over_hidden_ground", grow_over_hidden_ground, 0, 1, "",
+            "widen obstacles standing on the ground over the columns in which they hide the ground beyond");
+    v.field("hidden_max_seen_fraction", hidden_max_seen_fraction, 0.0, 1.0, "",
+            "largest share of a column's rows with ground or background features for it to hide them");
+    v.field("hidden_surround_fraction", hidden_surround_fraction, 0.0, 1.0, "",
+            "share of a column's rows with such features from which on it shows the ground");
+    v.field("hidden_min_terrain_fraction", hidden_min_terrain_fraction, 0.0, 1.0, "",
+            "share of the obstacle's rows across the image with such features needed to grow it");
+    v.field("hidden_end_columns", hidden_end_columns, 1, 1000, "columns",
+            "columns showing the ground that end the widening");
     v.field("grow_thin_tops", grow_thin_tops, 0, 1, "",
             "grow a narrow obstacle's top up its columns while their pixels match at its offset");
     v.field("thin_top_max_width_m", thin_top_max_width_m, 0.0, 10.0, "metres", "widest obstacle whose top grows");
@@ -541,6 +561,22 @@ class ObstacleExtractor {
   int extendStrides(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, const cv::Mat& labels,
                     std::vector<ObstacleCluster>& obstacles, double baseline_m) const;
 
+  // Widens the box (not the pixels) of each obstacle at one offset, at least min_width_px wide,
+  // whose bottom lies within contact_tolerance_px of its ground contact row (on a measured ground
+  // line), over the side columns in which it hides the ground and background beyond it. Over its
+  // rows, from its top to 3 rows above the higher of its bottom and contact rows (the foot, where
+  // the ground's offset meets its own, cannot tell), a column hides them when at most
+  // hidden_max_seen_fraction of those rows hold ground- or background-labelled features, and
+  // shows them at hidden_surround_fraction or more. A side grows to its last hiding column before
+  // hidden_end_columns showing ones (columns between the two fractions neither grow nor end it);
+  // a side that first meets the image border, a column holding another obstacle's pixels outside
+  // offset_tolerance_px of its offset, or plain_max_width_m at its offset is not grown: nothing
+  // shows where the body ends. Nothing grows unless the same rows across the whole image hold
+  // such features on hidden_min_terrain_fraction of their pixels: on weakly textured terrain a
+  // column without ground features tells nothing. Returns the number of columns added.
+  int growOverHiddenGround(const GroundProfile& ground, const cv::Mat& labels,
+                           std::vector<ObstacleCluster>& obstacles, double baseline_m);
+
   // Grows the top of each obstacle at one offset no wider than thin_top_max_width_m (a post)
   // up its columns, row by row. A row holds when at least two of its features in the box's
   // columns and a min_match_fraction share of them match the right image at the obstacle's
@@ -704,6 +740,7 @@ class ObstacleExtractor {
     bool in_gap = false;                              // between the parts
   };
   std::vector<FaceColumn> face_columns_;
+  std::vector<int> seen_in_row_;  // growOverHiddenGround: ground and background features per row
   std::vector<std::uint8_t> hidden_columns_;  // joinPlainFaces: gap columns behind a nearer obstacle
   std::vector<std::uint8_t> outline_hits_;    // growAlongTopOutline: per tested column, the outline matched
   std::vector<std::uint8_t> face_hits_;       // faceTop: per gap column, the outline matched at the row taken

@@ -144,6 +144,7 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
   obstacles_.trimStreakSides(left_features, right_features, out.ground, out.labels, out.obstacles);
   obstacles_.dropRemnants(out.labels, out.obstacles);
   obstacles_.extendStrides(left_features, right_features, out.ground, out.labels, out.obstacles, rig.baseline_m);
+  obstacles_.growOverHiddenGround(out.ground, out.labels, out.obstacles, rig.baseline_m);
   obstacles_.growThinTops(left_features, right_features, out.labels, out.obstacles, rig.baseline_m);
   obstacles_.settleOffsets(left_features, right_features, out.labels, out.obstacles);
   out.timing_ms["obstacles"] += msSince(t_after);
