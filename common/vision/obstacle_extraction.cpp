@@ -129,6 +129,15 @@ int pinningInColumn(const cv::Mat& left, const cv::Mat& labels, int x, int y0, i
   return n;
 }
 
+// Widens `box` to columns x0..x1 (x0 <= its left column, x1 >= its right one); returns the
+// number of columns added.
+int widenBox(cv::Rect& box, int x0, int x1) {
+  const int added = box.x - x0 + x1 - (box.x + box.width - 1);
+  box.width = x1 - x0 + 1;
+  box.x = x0;
+  return added;
+}
+
 // A column is plain over rows y0..y1 when at most a quarter of them are features.
 bool plainColumn(const cv::Mat& labels, int x, int y0, int y1) {
   return 4 * featuresInColumn(labels, x, y0, y1) <= y1 - y0 + 1;
@@ -1642,11 +1651,7 @@ int ObstacleExtractor::extendStrides(const cv::Mat& left, const cv::Mat& right, 
       }
       return std::abs(end - from) <= params_.plain_side_reach_px ? from : end;
     };
-    const int x0 = walk(o.box.x, -1);
-    const int x1 = walk(o.box.x + o.box.width - 1, +1);
-    added += o.box.x - x0 + x1 - (o.box.x + o.box.width - 1);
-    o.box.width = x1 - x0 + 1;
-    o.box.x = x0;
+    added += widenBox(o.box, walk(o.box.x, -1), walk(o.box.x + o.box.width - 1, +1));
   }
   return added;
 }
@@ -1716,11 +1721,7 @@ int ObstacleExtractor::growOverHiddenGround(const GroundProfile& ground, const c
       }
       return from;
     };
-    const int x0 = walk(o.box.x, -1);
-    const int x1 = walk(o.box.x + o.box.width - 1, +1);
-    added += o.box.x - x0 + x1 - (o.box.x + o.box.width - 1);
-    o.box.width = x1 - x0 + 1;
-    o.box.x = x0;
+    added += widenBox(o.box, walk(o.box.x, -1), walk(o.box.x + o.box.width - 1, +1));
   }
   return added;
 }
