@@ -129,6 +129,34 @@ int pinningInColumn(const cv::Mat& left, const cv::Mat& labels, int x, int y0, i
   return n;
 }
 
+// Is `label` a ground or background feature (the removal's, step 4)?
+bool groundOrBackground(std::uint8_t label) {
+  static_assert(kLabelBackground == kLabelGround + 1, "ground and background labels are one range");
+  return static_cast<std::uint8_t>(label - kLabelGround) <= 1u;
+}
+
+// Ground and background features in row y of `labels` (summed in byte lanes over blocks of 128
+// columns, which the compiler vectorises).
+int groundOrBackgroundInRow(const cv::Mat& labels, int y) {
+  const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
+  int n = 0, x = 0;
+  for (; x + 128 <= labels.cols; x += 128) {
+    std::uint8_t block = 0;
+    for (int k = 0; k < 128; ++k) block = static_cast<std::uint8_t>(block + groundOrBackground(lab[x + k]));
+    n += block;
+  }
+  for (; x < labels.cols; ++x) n += groundOrBackground(lab[x]);
+  return n;
+}
+
+// Is `label` a pixel of another obstacle than the one labelled `own`, with its offset (from
+// ObstacleExtractor::offsetsOfLabels) more than tol from d?
+bool ofAnotherObstacle(const std::array<int, 256>& offset_of_label, std::uint8_t label, int own, int d, int tol) {
+  if (label < kLabelFirstObstacle || label == own) return false;
+  const int e = offset_of_label[label];
+  return e >= 0 && std::abs(e - d) > tol;
+}
+
 // Widens `box` to columns x0..x1 (x0 <= its left column, x1 >= its right one); returns the
 // number of columns added.
 int widenBox(cv::Rect& box, int x0, int x1) {
@@ -1629,12 +1657,9 @@ int ObstacleExtractor::extendStrides(const cv::Mat& left, const cv::Mat& right, 
     };
     // Does column x hold, in the box's rows, a pixel of another obstacle at another offset?
     auto holdsAnother = [&](int x) {
-      for (int y = y0; y <= y1; ++y) {
-        const std::uint8_t label = labels.ptr<std::uint8_t>(y)[x];
-        if (label < kLabelFirstObstacle || label == o.label) continue;
-        const int e = offset_of_label[static_cast<std::size_t>(label)];
-        if (e >= 0 && std::abs(e - d) > params_.offset_tolerance_px) return true;
-      }
+      for (int y = y0; y <= y1; ++y)
+        if (ofAnotherObstacle(offset_of_label, labels.ptr<std::uint8_t>(y)[x], o.label, d, params_.offset_tolerance_px))
+          return true;
       return false;
     };
     const int reach = static_cast<int>(params_.stride_max_growth * o.box.height);
@@ -1660,23 +1685,8 @@ int ObstacleExtractor::growOverHiddenGround(const GroundProfile& ground, const c
                                             std::vector<ObstacleCluster>& obstacles, double baseline_m) {
   if (!params_.grow_over_hidden_ground || ground.source != GroundSource::kHough || !(baseline_m > 0.0)) return 0;
   const int cols = labels.cols, rows = labels.rows;
-  static_assert(kLabelBackground == kLabelGround + 1, "ground and background labels are one range");
-  auto showsBeyond = [](std::uint8_t label) {
-    return static_cast<std::uint8_t>(static_cast<std::uint8_t>(label - kLabelGround) <= 1u);
-  };
-  // Ground and background features per row (summed in byte lanes over blocks of 128 columns).
   seen_in_row_.resize(static_cast<std::size_t>(rows));
-  for (int y = 0; y < rows; ++y) {
-    const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
-    int n = 0, x = 0;
-    for (; x + 128 <= cols; x += 128) {
-      std::uint8_t block = 0;
-      for (int k = 0; k < 128; ++k) block = static_cast<std::uint8_t>(block + showsBeyond(lab[x + k]));
-      n += block;
-    }
-    for (; x < cols; ++x) n += showsBeyond(lab[x]);
-    seen_in_row_[static_cast<std::size_t>(y)] = n;
-  }
+  for (int y = 0; y < rows; ++y) seen_in_row_[static_cast<std::size_t>(y)] = groundOrBackgroundInRow(labels, y);
   const std::array<int, 256> offset_of_label = offsetsOfLabels(obstacles);
   const int tol = params_.offset_tolerance_px;
   int added = 0;
@@ -1699,10 +1709,8 @@ int ObstacleExtractor::growOverHiddenGround(const GroundProfile& ground, const c
       int k = 0;
       for (int y = y0; y <= y1; ++y) {
         const std::uint8_t label = labels.ptr<std::uint8_t>(y)[x];
-        k += showsBeyond(label);
-        if (label < kLabelFirstObstacle || label == o.label) continue;
-        const int e = offset_of_label[static_cast<std::size_t>(label)];
-        if (e >= 0 && std::abs(e - d) > tol) return -1;
+        k += groundOrBackground(label);
+        if (ofAnotherObstacle(offset_of_label, label, o.label, d, tol)) return -1;
       }
       return k;
     };
@@ -1786,10 +1794,7 @@ int ObstacleExtractor::growThinTops(const cv::Mat& left, const cv::Mat& right, c
         const std::uint8_t label = lab[x];
         const bool inside = x >= x0 && x < x1;
         if (label == kLabelNone || (!inside && x >= x0 - reach && x < x1 + reach)) continue;
-        if (inside && label != o.label) {
-          const int e = offset_of_label[label];
-          if (e >= 0 && std::abs(e - d) > tol) return false;
-        }
+        if (inside && ofAnotherObstacle(offset_of_label, label, o.label, d, tol)) return false;
         const int m = matchAt(l, r, x, std::max(0, d - tol), d + tol, params_.grey_tolerance,
                               params_.match_half_window_px, cols);
         (inside ? c.features : c.features_beside) += 1;
@@ -2355,7 +2360,6 @@ int ObstacleExtractor::keepHiddenFeet(const cv::Mat& left, const cv::Mat& right,
   if (!params_.keep_hidden_feet || ground.source != GroundSource::kHough || !(baseline_m > 0.0)) return 0;
   requireMono8Pair(left, right, labels);
   const int tol = params_.offset_tolerance_px;
-  auto behind = [](std::uint8_t v) { return v == kLabelGround || v == kLabelBackground; };
   int kept = 0;
   for (const FloatingPart& f : floating_) {
     if (static_cast<int>(obstacles.size()) >= params_.max_obstacles) break;
@@ -2375,17 +2379,14 @@ int ObstacleExtractor::keepHiddenFeet(const cv::Mat& left, const cv::Mat& right,
       const int contact = std::min(contactRowAt(f.offset, x), labels.rows - 1);
       last = std::max(last, contact);
       for (int y = bottom + 1; y <= contact; ++y) {
-        below += behind(labels.ptr<std::uint8_t>(y)[x]);
+        below += groundOrBackground(labels.ptr<std::uint8_t>(y)[x]);
         ++area;
       }
     }
     if (area == 0 || static_cast<double>(below) > params_.hidden_foot_max_behind * static_cast<double>(area)) continue;
     // ... while across the image, on the same rows, they are many (the ground there is textured).
     long across = 0;
-    for (int y = bottom + 1; y <= last; ++y) {
-      const std::uint8_t* lab = labels.ptr<std::uint8_t>(y);
-      for (int x = 0; x < labels.cols; ++x) across += behind(lab[x]);
-    }
+    for (int y = bottom + 1; y <= last; ++y) across += groundOrBackgroundInRow(labels, y);
     if (static_cast<double>(across) <
         params_.hidden_foot_min_behind_across * static_cast<double>(last - bottom) * labels.cols)
       continue;
