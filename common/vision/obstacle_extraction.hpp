@@ -202,7 +202,7 @@ struct ObstacleParams {
   bool grow_over_hidden_ground = true;     // widen obstacles standing on the ground over columns hiding it
   double hidden_max_seen_fraction = 0.125; // a column hides the ground when at most this share of its rows
                                            // holds ground or background features ...
-  double hidden_surround_fraction = 0.25;  // ... and shows it at this share or more
+  double hidden_surround_fraction = 0.3;   // ... and shows it at this share or more
   double hidden_min_terrain_fraction = 0.25;  // share of the same rows across the image holding such
                                               // features, below which nothing grows (weak texture)
   int hidden_end_columns = 3;              // columns showing the ground that end the widening
