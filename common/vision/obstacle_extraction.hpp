@@ -69,7 +69,7 @@ struct ObstacleParams {
   int gap_px = 6;                   // gaps tolerated inside an obstacle's histograms (pixels)
   int smooth_px = 2;                // half width of the box filter on the histograms (pixels)
   int min_height_px = 12;           // smaller clusters are rejected
-  int min_width_px = 4;
+  int min_width_px = 2;             // narrower clusters are rejected; the occluded-band trim leaves this many columns
   int min_cluster_features = 100;   // matched feature pixels needed for an obstacle (half of that person)
   double min_match_fraction = 0.5;  // matched share of the box's remaining features: chance matches of
                                     // unmatched texture (occlusions, aliasing) stay well below it
