@@ -70,7 +70,8 @@ struct ObstacleParams {
   int smooth_px = 2;                // half width of the box filter on the histograms (pixels)
   int min_height_px = 12;           // smaller clusters are rejected
   int min_width_px = 2;             // narrower clusters are rejected; the occluded-band trim leaves this many columns
-  int min_cluster_features = 100;   // matched feature pixels needed for an obstacle (half of that person)
+  int min_cluster_features = 110;   // matched feature pixels needed for an obstacle (about half of that
+                                    // person; 110, not 100: two residue clusters of kitti_rig's road surface stay below it)
   double min_match_fraction = 0.5;  // matched share of the box's remaining features: chance matches of
                                     // unmatched texture (occlusions, aliasing) stay well below it
   int share_half_window_px = 0;     // the share counts each pixel on its own (a thin structure's
@@ -218,7 +219,7 @@ struct ObstacleParams {
   // shows ~30-45 rows of a narrow outline. Such weaker clusters are kept when their size in
   // metres (from d* and the rig's baseline) is a person's. 0 turns this off.
   int weak_peak_matches = 120;      // histogram excess down to which person-sized clusters are sought
-  int weak_cluster_features = 50;   // matched pixels of a person-sized cluster (half the obstacles' minimum)
+  int weak_cluster_features = 50;   // matched pixels of a person-sized cluster (under half the obstacles' minimum)
   double weak_min_height_m = 0.9;   // a small child
   double weak_max_height_m = 2.1;   // a tall adult
   double weak_max_width_m = 1.2;    // walking, arms swinging, plus the match's spread
