@@ -1805,27 +1805,35 @@ int ObstacleExtractor::growThinTops(const cv::Mat& left, const cv::Mat& right, c
     // A row holds when at least two of its features in the box's columns, and a
     // min_match_fraction share of them, match at d: a larger share than beside (where a level
     // streak of the background would match alike).
+    // With thin_top_plain_beside, a row with no features beside (a post against plain sky) has
+    // nothing to be set against there: its own share decides.
+    const bool plain_beside = params_.thin_top_plain_beside;
     auto holds = [&](const Counts& c) {
       return c.matched >= 2 && c.matched >= params_.min_match_fraction * c.features &&
-             static_cast<long>(c.matched_beside) * c.features < static_cast<long>(c.matched) * c.features_beside;
+             ((plain_beside && c.features_beside == 0) ||
+              static_cast<long>(c.matched_beside) * c.features < static_cast<long>(c.matched) * c.features_beside);
     };
     int top = o.box.y, held = 0, held_at_top = 0;
     Counts grown, at_top;  // sums over the rows walked, and over those up to the top
+    Counts compared, compared_at_top;  // the same over the rows with features beside
     for (int y = o.box.y - 1, gap = 0; y >= 0; --y) {
       Counts row;
       if (!count(y, row)) break;
       grown += row;
+      if (!plain_beside || row.features_beside > 0) compared += row;
       if (holds(row)) {
         top = y;
         held_at_top = ++held;
         at_top = grown;
+        compared_at_top = compared;
         gap = 0;
       } else if (++gap > params_.thin_top_gap_rows) {
         break;
       }
     }
     // Most rows added hold, and together they match at d thin_top_min_contrast times as often as
-    // beside, or as at the other offsets in their own columns.
+    // beside (over the rows with features beside, when rows without any hold on their own), or as
+    // at the other offsets in their own columns.
     if (top == o.box.y || held_at_top < params_.thin_top_min_share * (o.box.y - top)) continue;
     // (at_top.matched counts the same features' matches at d that the other offsets are set against.)
     auto matchesItsOffsetMost = [&]() {
@@ -1834,10 +1842,11 @@ int ObstacleExtractor::growThinTops(const cv::Mat& left, const cv::Mat& right, c
       return others.windows > 0 && static_cast<double>(at_top.matched) * others.windows >=
                                        params_.thin_top_min_contrast * static_cast<double>(others.matches);
     };
-    if (static_cast<double>(at_top.matched) * at_top.features_beside <
-            params_.thin_top_min_contrast * at_top.matched_beside * at_top.features &&
-        !(params_.thin_top_other_offsets && matchesItsOffsetMost()))
-      continue;
+    const bool beside_compared = !plain_beside || compared_at_top.features_beside > 0;
+    const bool stands_out_of_beside =
+        beside_compared && static_cast<double>(compared_at_top.matched) * compared_at_top.features_beside >=
+                               params_.thin_top_min_contrast * compared_at_top.matched_beside * compared_at_top.features;
+    if (!stands_out_of_beside && !(params_.thin_top_other_offsets && matchesItsOffsetMost())) continue;
     added += o.box.y - top;
     o.box.height += o.box.y - top;
     o.box.y = top;

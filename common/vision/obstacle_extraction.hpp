@@ -215,6 +215,8 @@ struct ObstacleParams {
   double thin_top_min_share = 0.5;     // share of the rows added whose pixels match at the offset
   double thin_top_min_contrast = 3.0;  // how many times as often the rows added match at it as the columns beside
   bool thin_top_other_offsets = true;  // or as often as their own columns match at offsets 3 and 6 away
+  bool thin_top_plain_beside = true;   // a row with no features beside (plain sky) holds on its own share,
+                                       // and the contrast counts only the rows with features beside
   // Person-sized clusters below min_peak_matches / min_cluster_features: a person 25-35 m away
   // shows ~30-45 rows of a narrow outline. Such weaker clusters are kept when their size in
   // metres (from d* and the rig's baseline) is a person's. 0 turns this off.
@@ -405,6 +407,9 @@ struct ObstacleParams {
     v.field("thin_top_other_offsets", thin_top_other_offsets, 0, 1, "",
             "the rows added may instead match at the offset that many times as often as at offsets 3 and 6 "
             "either side of it");
+    v.field("thin_top_plain_beside", thin_top_plain_beside, 0, 1, "",
+            "a row with no features beside the box (plain sky) holds on its own matched share; the contrast "
+            "with the columns beside counts only rows with features there");
     v.field("join_across_nearer", join_across_nearer, 0, 1, "",
             "join two parts at one offset whose gap a nearer obstacle mostly hides");
     v.field("plain_height_tolerance", plain_height_tolerance, 0.0, 10.0, "",
@@ -582,11 +587,13 @@ class ObstacleExtractor {
   // up its columns, row by row. A row holds when at least two of its features in the box's
   // columns and a min_match_fraction share of them match the right image at the obstacle's
   // offset (+-offset_tolerance_px), a larger share than in the columns beside (as many as the box
-  // is wide each side, past plain_side_reach_px: a level streak matches everywhere alike). Up to
+  // is wide each side, past plain_side_reach_px: a level streak matches everywhere alike; with
+  // thin_top_plain_beside a row with no features beside holds on its own share). Up to
   // thin_top_gap_rows rows that do not hold are crossed; a row holding pixels of another obstacle
   // at another offset ends the growth. The top moves to the highest row that holds when at least
   // thin_top_min_share of the rows added hold and, over all of them, the box's columns match at
-  // the offset thin_top_min_contrast times as often as the columns beside, or (with
+  // the offset thin_top_min_contrast times as often as the columns beside (over the rows with
+  // features beside, with thin_top_plain_beside; none: this test fails), or (with
   // thin_top_other_offsets) as often as they match, on average, at the offsets 3 and 6 below and
   // above it (+-offset_tolerance_px; those below 0 left out): hills beside a far person can be
   // streaky and match anywhere, while his own texture matches at his offset only. Returns the

@@ -926,6 +926,17 @@ TEST(SyntheticObstacles, PostTopsMatchTheirOffsetMoreThanOthers) {
   expectFoundOnlyWithTheStep(beside_only, "Misc", {{581, 272}});
 }
 
+// A post against plain sky: above the horizon the columns beside it hold no features at all, so
+// no row there can match more often inside than beside, and the growth stopped at the horizon.
+// Seed 499's pole (19.2 m, offset 20, 187 rows; its cluster from row 129 down, IoU 0.49): rows
+// with nothing beside hold on their own matched share, the contrast with the columns beside counts
+// the rows that have features there, and its top grows to row 76 (IoU 0.61).
+TEST(SyntheticObstacles, PostTopsGrowAgainstPlainSky) {
+  SegmenterParams compared_beside;
+  compared_beside.obstacles.thin_top_plain_beside = false;
+  expectFoundOnlyWithTheStep(compared_beside, "Misc", {{499, 847}});
+}
+
 // A plain body standing on textured terrain hides the ground beyond it: its columns hold almost
 // no ground or background features over its rows, the terrain beside it many. The parts found of
 // seven vehicles (seed 169's side view 24 m away, found as a 10-column cabin edge; 270, 416, 587,
