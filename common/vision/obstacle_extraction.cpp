@@ -1854,6 +1854,27 @@ int ObstacleExtractor::growThinTops(const cv::Mat& left, const cv::Mat& right, c
   return added;
 }
 
+int ObstacleExtractor::stretchToContact(const GroundProfile& ground, std::vector<ObstacleCluster>& obstacles) const {
+  if (!params_.stretch_to_contact || ground.source == GroundSource::kNone || rows_ <= 0) return 0;
+  int added = 0;
+  for (ObstacleCluster& o : obstacles) {
+    const int d = o.offset_px;
+    if (d <= 0) continue;
+    // The lowest contact over the box's columns, as the loop judged it (a receding face meets the
+    // ground nearest at its near end; on a transversal slope the contact moves along the box).
+    int contact = -1;
+    for (int x = std::max(0, o.box.x); x < std::min(cols_, o.box.x + o.box.width); ++x)
+      contact = std::max(contact, std::min(contactRowAt(d, x), rows_ - 1));
+    const int bottom = o.box.y + o.box.height - 1;
+    const double allowed =
+        std::max(static_cast<double>(params_.contact_tolerance_px), params_.contact_tolerance_fraction * o.box.height);
+    if (contact <= bottom || contact - bottom > allowed) continue;
+    added += contact - bottom;
+    o.box.height = contact - o.box.y + 1;
+  }
+  return added;
+}
+
 int ObstacleExtractor::settleOffsets(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels,
                                      std::vector<ObstacleCluster>& obstacles) const {
   const int span = params_.settle_offset_span_px;

@@ -209,6 +209,8 @@ struct ObstacleParams {
   int hidden_end_columns = 3;              // columns showing the ground that end the widening
   // A pole's pixels in front of textured hills often match the background's offset too, so the
   // removal takes them and the cluster keeps only the pole's lower part (or a part above).
+  bool stretch_to_contact = true;      // a box ending above its ground contact row, within the contact tolerance,
+                                       // reaches down to it (the rows near the foot are left out of the loop)
   bool grow_thin_tops = true;          // grow a narrow obstacle's top up its columns while they match at its offset
   double thin_top_max_width_m = 0.4;   // widest obstacle grown (a post; a person seen from the front is wider)
   int thin_top_gap_rows = 6;           // rows whose pixels do not match crossed
@@ -396,6 +398,8 @@ struct ObstacleParams {
             "share of the obstacle's rows across the image with such features needed to grow it");
     v.field("hidden_end_columns", hidden_end_columns, 1, 1000, "columns",
             "columns showing the ground that end the widening");
+    v.field("stretch_to_contact", stretch_to_contact, 0, 1, "",
+            "stretch a box ending above its ground contact row (within the contact tolerance) down to it");
     v.field("grow_thin_tops", grow_thin_tops, 0, 1, "",
             "grow a narrow obstacle's top up its columns while their pixels match at its offset");
     v.field("thin_top_max_width_m", thin_top_max_width_m, 0.0, 10.0, "metres", "widest obstacle whose top grows");
@@ -600,6 +604,15 @@ class ObstacleExtractor {
   // number of rows added.
   int growThinTops(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels,
                    std::vector<ObstacleCluster>& obstacles, double baseline_m) const;
+
+  // Stretches each obstacle's box down to its ground contact row (ObstacleParams::
+  // stretch_to_contact): the lowest row, over the box's columns, where the ground's offset reaches
+  // the obstacle's, when the box's bottom lies above it by at most the loop's contact tolerance
+  // (contact_tolerance_px, or contact_tolerance_fraction of its height). The loop leaves the rows
+  // whose ground offset is within ground_clearance_px of an obstacle's out of its histograms
+  // (ground residue), so a box found there ends a few rows above its foot. Nothing without a
+  // ground line. Returns the number of rows added.
+  int stretchToContact(const GroundProfile& ground, std::vector<ObstacleCluster>& obstacles) const;
 
   // Settles the offset of each obstacle whose offset range spans at most settle_offset_span_px
   // (ObstacleParams::settle_offset_span_px): of the offsets within that span of its own, the one

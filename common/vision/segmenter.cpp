@@ -146,6 +146,7 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
   obstacles_.extendStrides(left_features, right_features, out.ground, out.labels, out.obstacles, rig.baseline_m);
   obstacles_.growOverHiddenGround(out.ground, out.labels, out.obstacles, rig.baseline_m);
   obstacles_.growThinTops(left_features, right_features, out.labels, out.obstacles, rig.baseline_m);
+  obstacles_.stretchToContact(out.ground, out.obstacles);
   obstacles_.settleOffsets(left_features, right_features, out.labels, out.obstacles);
   out.timing_ms["obstacles"] += msSince(t_after);
 
