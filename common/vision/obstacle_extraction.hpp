@@ -207,10 +207,10 @@ struct ObstacleParams {
   double hidden_min_terrain_fraction = 0.25;  // share of the same rows across the image holding such
                                               // features, below which nothing grows (weak texture)
   int hidden_end_columns = 3;              // columns showing the ground that end the widening
-  // A pole's pixels in front of textured hills often match the background's offset too, so the
-  // removal takes them and the cluster keeps only the pole's lower part (or a part above).
   bool stretch_to_contact = true;      // a box ending above its ground contact row, within the contact tolerance,
                                        // reaches down to it (the rows near the foot are left out of the loop)
+  // A pole's pixels in front of textured hills often match the background's offset too, so the
+  // removal takes them and the cluster keeps only the pole's lower part (or a part above).
   bool grow_thin_tops = true;          // grow a narrow obstacle's top up its columns while they match at its offset
   double thin_top_max_width_m = 0.4;   // widest obstacle grown (a post; a person seen from the front is wider)
   int thin_top_gap_rows = 6;           // rows whose pixels do not match crossed
