@@ -418,6 +418,10 @@ void ObstacleExtractor::rowLimitsAt(int offset, int* out) const {
   }
 }
 
+double ObstacleExtractor::contactTolerance(int height) const {
+  return std::max(static_cast<double>(params_.contact_tolerance_px), params_.contact_tolerance_fraction * height);
+}
+
 int ObstacleExtractor::contactRowAt(int offset, int x) const { return firstRowReaching(groundRelative(offset, x) - 0.5f); }
 
 int ObstacleExtractor::rowLimit(int offset) const { return row_limit_[static_cast<std::size_t>(offset)]; }
@@ -1241,8 +1245,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
         }
         lowest_shown = std::min(lowest_shown, contact);
         if (contact >= 0) {
-          const double allowed =
-              std::max(static_cast<double>(params_.contact_tolerance_px), params_.contact_tolerance_fraction * (y1 - y0 + 1));
+          const double allowed = contactTolerance(y1 - y0 + 1);
           if (y1 < lowest_shown - allowed) {
             // Weakly textured lower parts (legs, a plain lower body) fall below the histogram's
             // fraction of the peak: the cluster still stands on the ground when most rows down
@@ -1314,8 +1317,7 @@ void ObstacleExtractor::compute(cv::Mat& remaining, const cv::Mat& right, const 
     // found after the legs) is a part of it.
     ObstacleCluster* below = nullptr;
     if (floating && !unmatched) {
-      const double allowed = std::max(static_cast<double>(params_.contact_tolerance_px),
-                                      params_.contact_tolerance_fraction * box.height);
+      const double allowed = contactTolerance(box.height);
       for (ObstacleCluster& earlier : obstacles) {
         if (!atOffsetOf(earlier)) continue;
         const int overlap =
@@ -1866,9 +1868,7 @@ int ObstacleExtractor::stretchToContact(const GroundProfile& ground, std::vector
     for (int x = std::max(0, o.box.x); x < std::min(cols_, o.box.x + o.box.width); ++x)
       contact = std::max(contact, std::min(contactRowAt(d, x), rows_ - 1));
     const int bottom = o.box.y + o.box.height - 1;
-    const double allowed =
-        std::max(static_cast<double>(params_.contact_tolerance_px), params_.contact_tolerance_fraction * o.box.height);
-    if (contact <= bottom || contact - bottom > allowed) continue;
+    if (contact <= bottom || contact - bottom > contactTolerance(o.box.height)) continue;
     added += contact - bottom;
     o.box.height = contact - o.box.y + 1;
   }

@@ -657,6 +657,9 @@ class ObstacleExtractor {
   int rowLimitAt(int offset, int x) const;  // last row an obstacle at this offset may occupy in column x
   void rowLimitsAt(int offset, int* out) const;  // rowLimitAt of every column (cols_ values)
   int contactRowAt(int offset, int x) const;  // ground contact row of this offset in column x, rows when none
+  // Rows a cluster `height` rows tall may end above its contact row and still stand on the ground:
+  // contact_tolerance_px, or contact_tolerance_fraction of its height, whichever is larger.
+  double contactTolerance(int height) const;
 
   // Matches of rows at one offset range, evaluated on first use: per row the columns
   // [lo, hi) are valid.
