@@ -1856,6 +1856,42 @@ int ObstacleExtractor::growThinTops(const cv::Mat& left, const cv::Mat& right, c
   return added;
 }
 
+int ObstacleExtractor::foldNearEnds(const GroundProfile& ground, cv::Mat& labels,
+                                    std::vector<ObstacleCluster>& obstacles) {
+  if (!params_.fold_near_ends || ground.source != GroundSource::kHough || rows_ <= 0) return 0;
+  const int tol = params_.offset_tolerance_px;
+  int folds = 0;
+  for (bool again = true; again;) {
+    again = false;
+    for (std::size_t i = 0; i < obstacles.size() && !again; ++i) {
+      const ObstacleCluster& f = obstacles[i];
+      // A top at the image's border is not the face's top outline: nothing to compare.
+      if (f.max_offset_px - f.min_offset_px < params_.receding_min_offset_step_px || f.box.y <= 0) continue;
+      const int f_end = f.box.x + f.box.width;  // exclusive
+      const int slack = std::max(2, f.box.height / 8);
+      for (std::size_t j = 0; j < obstacles.size() && !again; ++j) {
+        const ObstacleCluster& e = obstacles[j];
+        if (j == i || e.offset_px <= 0 || e.min_offset_px <= f.max_offset_px + tol) continue;
+        if (params_.near_end_min_aspect * e.box.width > e.box.height) continue;  // an object, not an edge
+        const int e_end = e.box.x + e.box.width;
+        const int reach = std::max(2, e.box.width);
+        const bool at_right = e_end > f_end && std::abs(e.box.x - f_end) <= reach;
+        const bool at_left = e.box.x < f.box.x && std::abs(e_end - f.box.x) <= reach;
+        if ((!at_right && !at_left) || e.box.y <= 0 || std::abs(e.box.y - f.box.y) > slack) continue;
+        int contact = -1;
+        for (int x = std::max(0, e.box.x); x < std::min(cols_, e_end); ++x)
+          contact = std::max(contact, std::min(contactRowAt(e.offset_px, x), rows_ - 1));
+        const int bottom = e.box.y + e.box.height - 1;
+        if (contact < 0 || std::abs(contact - bottom) > contactTolerance(e.box.height)) continue;
+        foldInto(i, e.box, e.min_offset_px - tol - 1, e.max_offset_px + tol + 1, labels, obstacles);
+        ++folds;
+        again = true;
+      }
+    }
+  }
+  return folds;
+}
+
 int ObstacleExtractor::stretchToContact(const GroundProfile& ground, std::vector<ObstacleCluster>& obstacles) const {
   if (!params_.stretch_to_contact || ground.source == GroundSource::kNone || rows_ <= 0) return 0;
   int added = 0;

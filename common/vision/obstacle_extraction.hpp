@@ -207,6 +207,10 @@ struct ObstacleParams {
   double hidden_min_terrain_fraction = 0.25;  // share of the same rows across the image holding such
                                               // features, below which nothing grows (weak texture)
   int hidden_end_columns = 3;              // columns showing the ground that end the widening
+  // A plain wall seen at an angle: the loop finds its far part and the vertical edge of its near
+  // end apart (the face between is plain), and the plain-face join widens the far part to that edge.
+  bool fold_near_ends = true;          // fold such an edge into the face whose end it stands at
+  double near_end_min_aspect = 8.0;    // an edge: at least this many times taller than wide
   bool stretch_to_contact = true;      // a box ending above its ground contact row, within the contact tolerance,
                                        // reaches down to it (the rows near the foot are left out of the loop)
   // A pole's pixels in front of textured hills often match the background's offset too, so the
@@ -398,6 +402,9 @@ struct ObstacleParams {
             "share of the obstacle's rows across the image with such features needed to grow it");
     v.field("hidden_end_columns", hidden_end_columns, 1, 1000, "columns",
             "columns showing the ground that end the widening");
+    v.field("fold_near_ends", fold_near_ends, 0, 1, "",
+            "fold a thin nearer edge at a receding face's end, its top at the face's top and its foot on the ground, into the face");
+    v.field("near_end_min_aspect", near_end_min_aspect, 1.0, 1000.0, "", "height over width from which an obstacle is an edge");
     v.field("stretch_to_contact", stretch_to_contact, 0, 1, "",
             "stretch a box ending above its ground contact row (within the contact tolerance) down to it");
     v.field("grow_thin_tops", grow_thin_tops, 0, 1, "",
@@ -604,6 +611,16 @@ class ObstacleExtractor {
   // number of rows added.
   int growThinTops(const cv::Mat& left, const cv::Mat& right, const cv::Mat& labels,
                    std::vector<ObstacleCluster>& obstacles, double baseline_m) const;
+
+  // Folds the near end of a receding face into it (ObstacleParams::fold_near_ends): an obstacle
+  // nearer than every offset of a face whose offsets span receding_min_offset_step_px or more,
+  // taller than wide by near_end_min_aspect, at one of the face's ends (its box within its own
+  // width, or 2 columns, of the face's side), its top within an eighth of the face's height (2
+  // rows at least) of the face's top, and its bottom within the contact tolerance of its ground
+  // contact row. A plain wall seen at an angle shows its near end as such an edge: the wall's
+  // height in pixels grows toward it, and the face found at the far part's offsets ends rows above
+  // the near end's foot. Nothing without a measured ground line. Returns the number of folds.
+  int foldNearEnds(const GroundProfile& ground, cv::Mat& labels, std::vector<ObstacleCluster>& obstacles);
 
   // Stretches each obstacle's box down to its ground contact row (ObstacleParams::
   // stretch_to_contact): the lowest row, over the box's columns, where the ground's offset reaches

@@ -132,6 +132,7 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
   obstacles_.joinPlainFaces(left_features, right_features, out.ground, out.labels, out.obstacles,
                             rig.baseline_m);
   obstacles_.joinRecedingParts(left_features, right_features, out.ground, out.labels, out.obstacles, rig.baseline_m);
+  obstacles_.foldNearEnds(out.ground, out.labels, out.obstacles);
   obstacles_.growAlongTopOutline(left_features, right_features, out.ground, out.labels, out.obstacles,
                                  rig.baseline_m);
   obstacles_.joinStackedParts(left_features, right_features, out.labels, out.obstacles,

@@ -971,6 +971,17 @@ TEST(SyntheticObstacles, BoxesReachTheirGroundContact) {
   EXPECT_GT(nearer, 2 * farther);
 }
 
+// A plain wall seen at an angle: the loop finds its far part and the vertical edge of its near
+// end apart, and the plain-face join widens the far part to that edge at the far part's offsets,
+// rows above the near end's foot. Seed 215's wall (offsets about 14-46, rows 194-327) and seed
+// 444's (11-49, rows 190-335) are found whole with the near end folded in (IoU 0.93 and 0.98);
+// without it, as the far part only (IoU 0.49 each).
+TEST(SyntheticObstacles, NearEndsFoldIntoRecedingFaces) {
+  SegmenterParams unfolded;
+  unfolded.obstacles.fold_near_ends = false;
+  expectFoundOnlyWithTheStep(unfolded, "Misc", {{215, 751}, {444, 741}});
+}
+
 // A plain body standing on textured terrain hides the ground beyond it: its columns hold almost
 // no ground or background features over its rows, the terrain beside it many. The parts found of
 // seven vehicles (seed 169's side view 24 m away, found as a 10-column cabin edge; 270, 416, 587,
