@@ -2480,7 +2480,8 @@ int ObstacleExtractor::keepHiddenFeet(const cv::Mat& left, const cv::Mat& right,
 }
 
 int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground,
-                                      cv::Mat& labels, std::vector<ObstacleCluster>& obstacles, double baseline_m) {
+                                      cv::Mat& labels, std::vector<ObstacleCluster>& obstacles, double baseline_m,
+                                      bool late) {
   // Where the ground line was not measured (its texture too weak), a plain gap beside an obstacle
   // may be that ground: only two sides at one offset, with the top outline across the gap and a
   // textured surround, are joined there; one-sided faces, receding faces and parts across a nearer
@@ -2522,124 +2523,165 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
     return false;
   };
   int joins = 0;
-  for (std::size_t i = 0; i < obstacles.size(); ++i) {
-    for (const int dir : {+1, -1}) {
-      const ObstacleCluster& a = obstacles[i];
-      const int d_lo = std::max(1, a.min_offset_px - tol);
-      const int d_hi = a.max_offset_px + tol;
-      // The face's inner rows: the obstacle's rows without their top and bottom outline.
-      const int margin = std::max(2, a.box.height / 8);
-      const int y0 = a.box.y + margin, y1 = a.box.y + a.box.height - 1 - margin;
-      const int inner = y1 - y0 + 1;
-      if (inner <= 0) continue;
-      // Features of column x's inner rows; with `pinning`, also those of them that pin an offset
-      // (a horizontal edge, a window's or a panel's outline on a plain face, matches at every
-      // offset and tells no depth).
-      auto featuresIn = [&](int x, int* pinning = nullptr) {
-        int n = 0;
-        for (int y = y0; y <= y1; ++y) {
-          if (labels.ptr<std::uint8_t>(y)[x] == kLabelNone) continue;
-          ++n;
-          if (pinning && pinsOffset(left.ptr<std::uint8_t>(y), x, cols, params_.grey_tolerance)) ++*pinning;
-        }
-        return n;
-      };
-      auto matches = [&](int y, int x) {
-        return matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, d_lo, d_hi, params_.grey_tolerance,
-                       params_.match_half_window_px, cols);
-      };
-      // A column is plain when at most a quarter of its inner rows are features.
-      auto plain = [&](int f) { return 4 * f <= inner; };
-      // The gap: plain columns beside the obstacle, up to plain_max_width_m at its offset.
-      const int max_gap = static_cast<int>(params_.plain_max_width_m * a.offset_px / baseline_m);
-      const int first = dir > 0 ? a.box.x + a.box.width : a.box.x - 1;
-      int x = first, features = 0, pinning = 0;
-      for (; x >= 0 && x < cols && std::abs(x - first) <= max_gap; x += dir) {
-        int p = 0;
-        const int f = featuresIn(x, &p);
-        if (!plain(f)) break;
-        features += f;
-        pinning += p;
-      }
-      const int gap = std::abs(x - first);
-      if (gap == 0) continue;
-      if (pinning > params_.plain_max_feature_fraction * inner * gap) continue;
-      // The face's top outline: the obstacle's top row, or, when the gap's columns hold no matching
-      // outline there, the first row above it at which the gap stops being plain (a side whose upper
-      // part the removal took against the background: the face is plain up to its top).
-      auto topOf = [&]() { return faceTop(left, right, labels, a, first, x, dir, d_lo, d_hi, baseline_m); };
-      // Features (count, columns) in the `beyond` columns past the obstacle's near side, and past
-      // column `far` on the other side when there is one (far >= 0).
-      const int near_end = dir > 0 ? a.box.x - 1 : a.box.x + a.box.width;
-      auto featuresBeside = [&](int beyond, int far) {
-        int outside = 0, outside_columns = 0;
-        for (int k = 0; k < beyond; ++k) {
-          for (const int c : {near_end - dir * k, far >= 0 ? far + dir * (k + 1) : -1}) {
-            if (c < 0 || c >= cols) continue;
-            outside += featuresIn(c);
-            ++outside_columns;
+  // The joins beside each obstacle. `second` (the late call): only one-sided faces.
+  auto besideJoins = [&](bool second) {
+    for (std::size_t i = 0; i < obstacles.size(); ++i) {
+      for (const int dir : {+1, -1}) {
+        const ObstacleCluster& a = obstacles[i];
+        // An edge (near_end_min_aspect) found alone is a receding face's near end rather than a
+        // face at one offset: the face's offset changes along it.
+        if (second && params_.near_end_min_aspect * a.box.width <= a.box.height) continue;
+        const int d_lo = std::max(1, a.min_offset_px - tol);
+        const int d_hi = a.max_offset_px + tol;
+        // The face's inner rows: the obstacle's rows without their top and bottom outline.
+        const int margin = std::max(2, a.box.height / 8);
+        const int y0 = a.box.y + margin, y1 = a.box.y + a.box.height - 1 - margin;
+        const int inner = y1 - y0 + 1;
+        if (inner <= 0) continue;
+        // Features of column x's inner rows; with `pinning`, also those of them that pin an offset
+        // (a horizontal edge, a window's or a panel's outline on a plain face, matches at every
+        // offset and tells no depth).
+        auto featuresIn = [&](int x, int* pinning = nullptr) {
+          int n = 0;
+          for (int y = y0; y <= y1; ++y) {
+            if (labels.ptr<std::uint8_t>(y)[x] == kLabelNone) continue;
+            ++n;
+            if (pinning && pinsOffset(left.ptr<std::uint8_t>(y), x, cols, params_.grey_tolerance)) ++*pinning;
           }
+          return n;
+        };
+        auto matches = [&](int y, int x) {
+          return matchAt(left.ptr<std::uint8_t>(y), right.ptr<std::uint8_t>(y), x, d_lo, d_hi, params_.grey_tolerance,
+                         params_.match_half_window_px, cols);
+        };
+        // A column is plain when at most a quarter of its inner rows are features.
+        auto plain = [&](int f) { return 4 * f <= inner; };
+        // The gap: plain columns beside the obstacle, up to plain_max_width_m at its offset.
+        const int max_gap = static_cast<int>(params_.plain_max_width_m * a.offset_px / baseline_m);
+        const int first = dir > 0 ? a.box.x + a.box.width : a.box.x - 1;
+        int x = first, features = 0, pinning = 0;
+        for (; x >= 0 && x < cols && std::abs(x - first) <= max_gap; x += dir) {
+          int p = 0;
+          const int f = featuresIn(x, &p);
+          if (!plain(f)) break;
+          features += f;
+          pinning += p;
         }
-        return std::pair<int, int>{outside, outside_columns};
-      };
-      // One side only (the far side hidden, at the image border or not a face's): the face
-      // reaches as far as its top outline keeps matching in most columns.
-      auto oneSided = [&]() {
-        // Without a far side, horizontal edges in the gap may be a receding face's texture (its
-        // offset changes along it): only a gap plain of every feature is taken at one offset.
-        if (!measured_ground || !params_.plain_one_sided || features > params_.plain_max_feature_fraction * inner * gap)
-          return false;
-        const int top = topOf().row;
-        int hits = 0, end = -1;
-        for (int k = first, j = 0; k != x; k += dir, ++j) {
-          if (!face_hits_[static_cast<std::size_t>(j)]) continue;
-          ++hits;
-          if (hits >= params_.plain_min_outline_fraction * (std::abs(k - first) + 1)) end = k;
+        const int gap = std::abs(x - first);
+        if (gap == 0) continue;
+        if (pinning > params_.plain_max_feature_fraction * inner * gap) continue;
+        // The face's top outline: the obstacle's top row, or, when the gap's columns hold no matching
+        // outline there, the first row above it at which the gap stops being plain (a side whose upper
+        // part the removal took against the background: the face is plain up to its top).
+        auto topOf = [&]() { return faceTop(left, right, labels, a, first, x, dir, d_lo, d_hi, baseline_m); };
+        // Features (count, columns) in the `beyond` columns past the obstacle's near side, and past
+        // column `far` on the other side when there is one (far >= 0).
+        const int near_end = dir > 0 ? a.box.x - 1 : a.box.x + a.box.width;
+        auto featuresBeside = [&](int beyond, int far) {
+          int outside = 0, outside_columns = 0;
+          for (int k = 0; k < beyond; ++k) {
+            for (const int c : {near_end - dir * k, far >= 0 ? far + dir * (k + 1) : -1}) {
+              if (c < 0 || c >= cols) continue;
+              outside += featuresIn(c);
+              ++outside_columns;
+            }
+          }
+          return std::pair<int, int>{outside, outside_columns};
+        };
+        // One side only (the far side hidden, at the image border or not a face's): the face
+        // reaches as far as its top outline keeps matching in most columns.
+        auto oneSided = [&]() {
+          // Without a far side, horizontal edges in the gap may be a receding face's texture (its
+          // offset changes along it): only a gap plain of every feature is taken at one offset.
+          // The late call, after the receding joins, takes any gap of plain columns (its features
+          // the horizontal edges of a vehicle's side seen at an angle), where it hides the terrain
+          // that shows elsewhere: across the image, the face's inner rows hold
+          // hidden_min_terrain_fraction of ground and background features or more (on weakly
+          // textured ground a featureless stretch beside an obstacle is that ground).
+          if (!measured_ground || !params_.plain_one_sided) return false;
+          if (!second && features > params_.plain_max_feature_fraction * inner * gap) return false;
+          if (second) {
+            long terrain = 0;
+            for (int y = y0; y <= y1; ++y) {
+              int& seen = seen_in_row_[static_cast<std::size_t>(y)];  // counted when first needed
+              if (seen < 0) seen = groundOrBackgroundInRow(labels, y);
+              terrain += seen;
+            }
+            if (static_cast<double>(terrain) < params_.hidden_min_terrain_fraction * inner * cols) return false;
+          }
+          const int top = topOf().row;
+          int hits = 0, end = -1;
+          for (int k = first, j = 0; k != x; k += dir, ++j) {
+            if (!face_hits_[static_cast<std::size_t>(j)]) continue;
+            ++hits;
+            if (hits >= params_.plain_min_outline_fraction * (std::abs(k - first) + 1)) end = k;
+          }
+          if (end < 0 || std::abs(end - first) + 1 < std::max(8, a.box.width)) return false;
+          // In the late call the gap holds a pixel pinning an offset (a corner, a wheel, a window's
+          // side): level streaks alone tell no depth, and may be the top of a plain box farther
+          // behind.
+          if (second) {
+            bool pinned = false;
+            for (int k = first; k != end + dir && !pinned; k += dir)
+              for (int y = y0; y <= y1 && !pinned; ++y)
+                pinned = labels.ptr<std::uint8_t>(y)[k] != kLabelNone &&
+                         pinsOffset(left.ptr<std::uint8_t>(y), k, cols, params_.grey_tolerance);
+            if (!pinned) return false;
+          }
+          const auto [outside, outside_columns] =
+              featuresBeside(std::min(std::abs(end - first) + 1, 2 * a.box.width), -1);
+          if (outside_columns == 0 || outside < kPlainSurroundFraction * outside_columns * inner) return false;
+          const cv::Rect reach = a.box | cv::Rect(std::min(first, end), top, std::abs(end - first) + 1, 1);
+          foldInto(i, reach, a.min_offset_px - tol - 1, a.max_offset_px + tol + 1, labels, obstacles);
+          return true;
+        };
+        if (x < 0 || x >= cols || gap > max_gap) {
+          joins += oneSided() ? 1 : 0;
+          continue;
         }
-        if (end < 0 || std::abs(end - first) + 1 < std::max(8, a.box.width)) return false;
-        const auto [outside, outside_columns] = featuresBeside(std::min(std::abs(end - first) + 1, 2 * a.box.width), -1);
-        if (outside_columns == 0 || outside < kPlainSurroundFraction * outside_columns * inner) return false;
-        const cv::Rect reach = a.box | cv::Rect(std::min(first, end), top, std::abs(end - first) + 1, 1);
+        // The far side: the columns after the gap whose features mostly match at the offsets.
+        int far = x - dir;
+        for (int k = x; k >= 0 && k < cols && std::abs(k - x) < std::max(a.box.width, 8); k += dir) {
+          const int f = featuresIn(k);
+          if (plain(f)) break;
+          int matched = 0;
+          for (int y = y0; y <= y1; ++y) matched += matches(y, k);
+          if (matched < params_.min_match_fraction * f) break;
+          far = k;
+        }
+        if (far == x - dir) {
+          joins += oneSided() ? 1 : 0;
+          continue;
+        }
+        if (second) continue;
+        // The top outline continues the obstacle's top: most gap columns hold, within 2 rows of
+        // it, a feature matching at the offsets.
+        const FaceTop top = topOf();
+        // The gap is plain where the same rows beyond both sides are not: something hides what
+        // is behind it (on ground without texture a plain gap may be the ground itself).
+        const auto [outside, outside_columns] = featuresBeside(std::min(gap, 2 * a.box.width), far);
+        if (top.outlined < params_.plain_min_outline_fraction * gap) continue;
+        if (outside < kPlainSurroundFraction * outside_columns * inner) continue;
+        // A side farther than `a` (within the offsets the far side matched at) continuing the face
+        // beyond it: `a` stands in front of the face (a person before a wall whose far end is found).
+        if (params_.front_of_face && faceBeyond(a, nullptr, dir < 0, d_lo - 1, a.offset_px - tol - 1, top.row,
+                                                std::max(2, a.box.height / 8), far, y0, y1, 0.0))
+          continue;
+        // Joined: the box spans the far side, and obstacles there at the same offsets fold into it.
+        cv::Rect reach = a.box | cv::Rect(std::min(x, far), top.row, std::abs(far - x) + 1, 1);
         foldInto(i, reach, a.min_offset_px - tol - 1, a.max_offset_px + tol + 1, labels, obstacles);
-        return true;
-      };
-      if (x < 0 || x >= cols || gap > max_gap) {
-        joins += oneSided() ? 1 : 0;
-        continue;
+        ++joins;
       }
-      // The far side: the columns after the gap whose features mostly match at the offsets.
-      int far = x - dir;
-      for (int k = x; k >= 0 && k < cols && std::abs(k - x) < std::max(a.box.width, 8); k += dir) {
-        const int f = featuresIn(k);
-        if (plain(f)) break;
-        int matched = 0;
-        for (int y = y0; y <= y1; ++y) matched += matches(y, k);
-        if (matched < params_.min_match_fraction * f) break;
-        far = k;
-      }
-      if (far == x - dir) {
-        joins += oneSided() ? 1 : 0;
-        continue;
-      }
-      // The top outline continues the obstacle's top: most gap columns hold, within 2 rows of
-      // it, a feature matching at the offsets.
-      const FaceTop top = topOf();
-      // The gap is plain where the same rows beyond both sides are not: something hides what
-      // is behind it (on ground without texture a plain gap may be the ground itself).
-      const auto [outside, outside_columns] = featuresBeside(std::min(gap, 2 * a.box.width), far);
-      if (top.outlined < params_.plain_min_outline_fraction * gap) continue;
-      if (outside < kPlainSurroundFraction * outside_columns * inner) continue;
-      // A side farther than `a` (within the offsets the far side matched at) continuing the face
-      // beyond it: `a` stands in front of the face (a person before a wall whose far end is found).
-      if (params_.front_of_face && faceBeyond(a, nullptr, dir < 0, d_lo - 1, a.offset_px - tol - 1, top.row,
-                                              std::max(2, a.box.height / 8), far, y0, y1, 0.0))
-        continue;
-      // Joined: the box spans the far side, and obstacles there at the same offsets fold into it.
-      cv::Rect reach = a.box | cv::Rect(std::min(x, far), top.row, std::abs(far - x) + 1, 1);
-      foldInto(i, reach, a.min_offset_px - tol - 1, a.max_offset_px + tol + 1, labels, obstacles);
-      ++joins;
     }
+  };
+  if (late) {
+    if (!params_.plain_late_one_sided) return 0;
+    // The joins relabel obstacles only: each row's ground and background count holds throughout.
+    seen_in_row_.assign(static_cast<std::size_t>(left.rows), -1);
+    besideJoins(true);
+    return joins;
   }
+  besideJoins(false);
   // Faces receding in depth (a long wall seen at an angle): a near part `a` and a far part `f`
   // at a smaller offset with a gap between them (a wall plain where near and textured far away,
   // or a textured wall whose matches held over a few offsets at a time, so the growth over

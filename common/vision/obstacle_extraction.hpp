@@ -153,6 +153,8 @@ struct ObstacleParams {
   double plain_max_feature_fraction = 0.05;  // share of the gap's inner pixels that are features pinning an
                                              // offset (not along a horizontal edge) up to which it is plain;
                                              // with one side only, of all its features
+  bool plain_late_one_sided = true;          // after the receding joins, one-sided faces also over plain gaps
+                                             // with features (a vehicle's side), where the terrain shows
   double plain_min_outline_fraction = 0.5;   // share of the gap's columns whose top outline matches at the offset
   double plain_max_width_m = 15.0;           // widest gap joined (a long vehicle's side)
   double plain_height_tolerance = 0.25;      // a receding face's two sides: heights in metres within this
@@ -348,6 +350,8 @@ struct ObstacleParams {
     v.field("plain_max_feature_fraction", plain_max_feature_fraction, 0.0, 1.0, "",
             "share of the gap that is features pinning an offset (not horizontal edges; one side only: "
             "any feature) up to which it is plain");
+    v.field("plain_late_one_sided", plain_late_one_sided, 0, 1, "",
+            "after the receding joins, join one-sided faces over plain gaps holding unpinned features too");
     v.field("plain_min_outline_fraction", plain_min_outline_fraction, 0.0, 1.0, "",
             "share of the gap's columns whose top outline matches at the sides' offset");
     v.field("plain_raise_top", plain_raise_top, 0, 1, "",
@@ -525,9 +529,14 @@ class ObstacleExtractor {
   // Joins the two sides of plain faces (ObstacleParams::join_plain_faces): `left` is the whole
   // left feature image (before any removal), `labels` as left by compute(); joined obstacles
   // are relabelled and the later ones renumbered. Only on frames whose ground line was
-  // measured (ground.source kHough). Returns the number of joins.
+  // measured (ground.source kHough). With `late` (a second call, after the receding joins and
+  // the near ends' folds; plain_late_one_sided), only one-sided faces are joined, over a gap
+  // of plain columns that pins no offset (plain_max_feature_fraction) whatever its other
+  // features (the horizontal edges of a vehicle's side seen at an angle), when the face's inner
+  // rows hold hidden_min_terrain_fraction of ground and background features across the image.
+  // Returns the number of joins.
   int joinPlainFaces(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
-                     std::vector<ObstacleCluster>& obstacles, double baseline_m);
+                     std::vector<ObstacleCluster>& obstacles, double baseline_m, bool late = false);
 
   // Joins parts of one face receding in depth (ObstacleParams::join_receding_parts): two
   // obstacles side by side at different offsets, of one height in metres, are one face when the
@@ -781,7 +790,7 @@ class ObstacleExtractor {
     bool in_gap = false;                              // between the parts
   };
   std::vector<FaceColumn> face_columns_;
-  std::vector<int> seen_in_row_;  // growOverHiddenGround: ground and background features per row
+  std::vector<int> seen_in_row_;  // growOverHiddenGround, late plain-face joins: ground and background features per row
   std::vector<std::uint8_t> hidden_columns_;  // joinPlainFaces: gap columns behind a nearer obstacle
   std::vector<std::uint8_t> outline_hits_;    // growAlongTopOutline: per tested column, the outline matched
   std::vector<std::uint8_t> face_hits_;       // faceTop: per gap column, the outline matched at the row taken

@@ -133,6 +133,8 @@ void Segmenter::run(const cv::Mat& left_features, const cv::Mat& right_features,
                             rig.baseline_m);
   obstacles_.joinRecedingParts(left_features, right_features, out.ground, out.labels, out.obstacles, rig.baseline_m);
   obstacles_.foldNearEnds(out.ground, out.labels, out.obstacles);
+  obstacles_.joinPlainFaces(left_features, right_features, out.ground, out.labels, out.obstacles, rig.baseline_m,
+                            /*late=*/true);
   obstacles_.growAlongTopOutline(left_features, right_features, out.ground, out.labels, out.obstacles,
                                  rig.baseline_m);
   obstacles_.joinStackedParts(left_features, right_features, out.labels, out.obstacles,
