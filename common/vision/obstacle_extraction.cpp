@@ -1856,6 +1856,10 @@ int ObstacleExtractor::growThinTops(const cv::Mat& left, const cv::Mat& right, c
   return added;
 }
 
+bool ObstacleExtractor::isEdge(const ObstacleCluster& o) const {
+  return params_.near_end_min_aspect * o.box.width <= o.box.height;
+}
+
 int ObstacleExtractor::foldNearEnds(const GroundProfile& ground, cv::Mat& labels,
                                     std::vector<ObstacleCluster>& obstacles) {
   if (!params_.fold_near_ends || ground.source != GroundSource::kHough || rows_ <= 0) return 0;
@@ -1872,7 +1876,7 @@ int ObstacleExtractor::foldNearEnds(const GroundProfile& ground, cv::Mat& labels
       for (std::size_t j = 0; j < obstacles.size() && !again; ++j) {
         const ObstacleCluster& e = obstacles[j];
         if (j == i || e.offset_px <= 0 || e.min_offset_px <= f.max_offset_px + tol) continue;
-        if (params_.near_end_min_aspect * e.box.width > e.box.height) continue;  // an object, not an edge
+        if (!isEdge(e)) continue;  // an object
         const int e_end = e.box.x + e.box.width;
         const int reach = std::max(2, e.box.width);
         const bool at_right = e_end > f_end && std::abs(e.box.x - f_end) <= reach;
@@ -2530,7 +2534,7 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
         const ObstacleCluster& a = obstacles[i];
         // An edge (near_end_min_aspect) found alone is a receding face's near end rather than a
         // face at one offset: the face's offset changes along it.
-        if (second && params_.near_end_min_aspect * a.box.width <= a.box.height) continue;
+        if (second && isEdge(a)) continue;
         const int d_lo = std::max(1, a.min_offset_px - tol);
         const int d_hi = a.max_offset_px + tol;
         // The face's inner rows: the obstacle's rows without their top and bottom outline.

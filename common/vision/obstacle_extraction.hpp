@@ -630,6 +630,8 @@ class ObstacleExtractor {
   // height in pixels grows toward it, and the face found at the far part's offsets ends rows above
   // the near end's foot. Nothing without a measured ground line. Returns the number of folds.
   int foldNearEnds(const GroundProfile& ground, cv::Mat& labels, std::vector<ObstacleCluster>& obstacles);
+  // Is the obstacle an edge, near_end_min_aspect times taller than wide or more?
+  bool isEdge(const ObstacleCluster& o) const;
 
   // Stretches each obstacle's box down to its ground contact row (ObstacleParams::
   // stretch_to_contact): the lowest row, over the box's columns, where the ground's offset reaches
