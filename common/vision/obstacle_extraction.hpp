@@ -351,7 +351,8 @@ struct ObstacleParams {
             "share of the gap that is features pinning an offset (not horizontal edges; one side only: "
             "any feature) up to which it is plain");
     v.field("plain_late_one_sided", plain_late_one_sided, 0, 1, "",
-            "after the receding joins, join one-sided faces over plain gaps holding unpinned features too");
+            "after the receding joins, join one-sided faces over plain gaps holding level edges too (where the terrain "
+            "shows and a pixel in the gap pins an offset)");
     v.field("plain_min_outline_fraction", plain_min_outline_fraction, 0.0, 1.0, "",
             "share of the gap's columns whose top outline matches at the sides' offset");
     v.field("plain_raise_top", plain_raise_top, 0, 1, "",
