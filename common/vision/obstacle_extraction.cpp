@@ -424,6 +424,13 @@ double ObstacleExtractor::contactTolerance(int height) const {
 
 int ObstacleExtractor::contactRowAt(int offset, int x) const { return firstRowReaching(groundRelative(offset, x) - 0.5f); }
 
+int ObstacleExtractor::lowestContact(const cv::Rect& box, int offset) const {
+  int contact = -1;
+  for (int x = std::max(0, box.x); x < std::min(cols_, box.x + box.width); ++x)
+    contact = std::max(contact, std::min(contactRowAt(offset, x), rows_ - 1));
+  return contact;
+}
+
 int ObstacleExtractor::rowLimit(int offset) const { return row_limit_[static_cast<std::size_t>(offset)]; }
 
 void ObstacleExtractor::offsetHistogram(const cv::Mat& matches, const GroundProfile& ground) {
@@ -1882,9 +1889,7 @@ int ObstacleExtractor::foldNearEnds(const GroundProfile& ground, cv::Mat& labels
         const bool at_right = e_end > f_end && std::abs(e.box.x - f_end) <= reach;
         const bool at_left = e.box.x < f.box.x && std::abs(e_end - f.box.x) <= reach;
         if ((!at_right && !at_left) || e.box.y <= 0 || std::abs(e.box.y - f.box.y) > slack) continue;
-        int contact = -1;
-        for (int x = std::max(0, e.box.x); x < std::min(cols_, e_end); ++x)
-          contact = std::max(contact, std::min(contactRowAt(e.offset_px, x), rows_ - 1));
+        const int contact = lowestContact(e.box, e.offset_px);
         const int bottom = e.box.y + e.box.height - 1;
         if (contact < 0 || std::abs(contact - bottom) > contactTolerance(e.box.height)) continue;
         foldInto(i, e.box, e.min_offset_px - tol - 1, e.max_offset_px + tol + 1, labels, obstacles);
@@ -1904,9 +1909,7 @@ int ObstacleExtractor::stretchToContact(const GroundProfile& ground, std::vector
     if (d <= 0) continue;
     // The lowest contact over the box's columns, as the loop judged it (a receding face meets the
     // ground nearest at its near end; on a transversal slope the contact moves along the box).
-    int contact = -1;
-    for (int x = std::max(0, o.box.x); x < std::min(cols_, o.box.x + o.box.width); ++x)
-      contact = std::max(contact, std::min(contactRowAt(d, x), rows_ - 1));
+    const int contact = lowestContact(o.box, d);
     const int bottom = o.box.y + o.box.height - 1;
     if (contact <= bottom || contact - bottom > contactTolerance(o.box.height)) continue;
     added += contact - bottom;
@@ -2603,8 +2606,9 @@ int ObstacleExtractor::joinPlainFaces(const cv::Mat& left, const cv::Mat& right,
           // hidden_min_terrain_fraction of ground and background features or more (on weakly
           // textured ground a featureless stretch beside an obstacle is that ground).
           if (!measured_ground || !params_.plain_one_sided) return false;
-          if (!second && features > params_.plain_max_feature_fraction * inner * gap) return false;
-          if (second) {
+          if (!second) {
+            if (features > params_.plain_max_feature_fraction * inner * gap) return false;
+          } else {
             long terrain = 0;
             for (int y = y0; y <= y1; ++y) {
               int& seen = seen_in_row_[static_cast<std::size_t>(y)];  // counted when first needed

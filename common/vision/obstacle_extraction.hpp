@@ -154,7 +154,8 @@ struct ObstacleParams {
                                              // offset (not along a horizontal edge) up to which it is plain;
                                              // with one side only, of all its features
   bool plain_late_one_sided = true;          // after the receding joins, one-sided faces also over plain gaps
-                                             // with features (a vehicle's side), where the terrain shows
+                                             // with level edges (a vehicle's side), where the terrain shows
+                                             // and a pixel in the gap pins an offset
   double plain_min_outline_fraction = 0.5;   // share of the gap's columns whose top outline matches at the offset
   double plain_max_width_m = 15.0;           // widest gap joined (a long vehicle's side)
   double plain_height_tolerance = 0.25;      // a receding face's two sides: heights in metres within this
@@ -408,8 +409,10 @@ struct ObstacleParams {
     v.field("hidden_end_columns", hidden_end_columns, 1, 1000, "columns",
             "columns showing the ground that end the widening");
     v.field("fold_near_ends", fold_near_ends, 0, 1, "",
-            "fold a thin nearer edge at a receding face's end, its top at the face's top and its foot on the ground, into the face");
-    v.field("near_end_min_aspect", near_end_min_aspect, 1.0, 1000.0, "", "height over width from which an obstacle is an edge");
+            "fold a thin nearer edge at a receding face's end, its top at the face's top and its foot on the "
+            "ground, into the face");
+    v.field("near_end_min_aspect", near_end_min_aspect, 1.0, 1000.0, "",
+            "height over width from which an obstacle is an edge");
     v.field("stretch_to_contact", stretch_to_contact, 0, 1, "",
             "stretch a box ending above its ground contact row (within the contact tolerance) down to it");
     v.field("grow_thin_tops", grow_thin_tops, 0, 1, "",
@@ -531,11 +534,12 @@ class ObstacleExtractor {
   // left feature image (before any removal), `labels` as left by compute(); joined obstacles
   // are relabelled and the later ones renumbered. Only on frames whose ground line was
   // measured (ground.source kHough). With `late` (a second call, after the receding joins and
-  // the near ends' folds; plain_late_one_sided), only one-sided faces are joined, over a gap
-  // of plain columns that pins no offset (plain_max_feature_fraction) whatever its other
-  // features (the horizontal edges of a vehicle's side seen at an angle), when the face's inner
-  // rows hold hidden_min_terrain_fraction of ground and background features across the image.
-  // Returns the number of joins.
+  // the near ends' folds; plain_late_one_sided), only one-sided faces beside obstacles that are
+  // not edges (isEdge) are joined, over a gap of plain columns whatever its level edges (a
+  // vehicle's side seen at an angle; its pinning features still at most
+  // plain_max_feature_fraction), when the face's inner rows hold hidden_min_terrain_fraction of
+  // ground and background features across the image and the gap holds a pixel pinning an
+  // offset. Returns the number of joins.
   int joinPlainFaces(const cv::Mat& left, const cv::Mat& right, const GroundProfile& ground, cv::Mat& labels,
                      std::vector<ObstacleCluster>& obstacles, double baseline_m, bool late = false);
 
@@ -686,6 +690,9 @@ class ObstacleExtractor {
   int rowLimitAt(int offset, int x) const;  // last row an obstacle at this offset may occupy in column x
   void rowLimitsAt(int offset, int* out) const;  // rowLimitAt of every column (cols_ values)
   int contactRowAt(int offset, int x) const;  // ground contact row of this offset in column x, rows when none
+  // The lowest contactRowAt of the offset over the box's columns (at most the last row; -1 when
+  // the box holds no column of the image).
+  int lowestContact(const cv::Rect& box, int offset) const;
   // Rows a cluster `height` rows tall may end above its contact row and still stand on the ground:
   // contact_tolerance_px, or contact_tolerance_fraction of its height, whichever is larger.
   double contactTolerance(int height) const;

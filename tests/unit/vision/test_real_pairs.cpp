@@ -55,12 +55,12 @@ TEST(RealPairs, CameraHeightFromTheGroundLine) {
 
 // od02_000001: a street lamp's post (columns about 912-936, offset 25) stands before the trees
 // right of the road (columns 949-1096, offsets 20-23), both cut by the image's top row; row 100
-// crosses both. The post
-// is thin and nearer than the trees, as a receding wall's near edge would be, but a top at the
-// border is no outline to compare: the post stays an obstacle of its own.
+// crosses both. The post is thin and nearer than the trees, as a receding wall's near edge would
+// be, but a top at the border is no outline to compare: the post stays an obstacle of its own.
 TEST(RealPairs, LampPostStaysApartFromTheTreesBehind) {
   const auto pairs = test::loadKittiRigPairs();
-  const auto it = std::find_if(pairs.begin(), pairs.end(), [](const test::RealPair& p) { return p.name == "od02_000001"; });
+  const auto it =
+      std::find_if(pairs.begin(), pairs.end(), [](const test::RealPair& p) { return p.name == "od02_000001"; });
   ASSERT_NE(it, pairs.end()) << "od02_000001 missing under " << SG_SHARED_DATA_DIR;
   FeatureExtractor fx;
   Segmenter seg;
